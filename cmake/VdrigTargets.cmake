@@ -1,0 +1,38 @@
+# Common compile options for every vdrig target.
+add_library(vdrig_options INTERFACE)
+target_compile_options(vdrig_options INTERFACE -Wall -Wextra -Wpedantic)
+if(VDRIG_WERROR)
+  target_compile_options(vdrig_options INTERFACE -Werror)
+endif()
+if(VDRIG_SANITIZE)
+  target_compile_options(vdrig_options INTERFACE -fsanitize=address,undefined -fno-omit-frame-pointer
+                                                 -fno-sanitize-recover=undefined)
+  target_link_options(vdrig_options INTERFACE -fsanitize=address,undefined)
+endif()
+
+# vdrig_module(NAME SOURCES ... DEPS ...): one static library per module folder, as vdrig::NAME,
+# with public headers in NAME/include/vdrig/NAME/.
+function(vdrig_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(vdrig_${name} STATIC ${ARG_SOURCES})
+  add_library(vdrig::${name} ALIAS vdrig_${name})
+  target_include_directories(vdrig_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+                                           PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(vdrig_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE vdrig_options ${ARG_PRIVATE_DEPS})
+  set_target_properties(vdrig_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# vdrig_test(NAME SOURCES ... DEPS ... [LABELS ...]): one GoogleTest executable, tests discovered by CTest.
+function(vdrig_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main vdrig_options)
+  target_compile_definitions(${name} PRIVATE VDRIG_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+                                             VDRIG_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 600)
+  endif()
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
+                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}" SKIP_RETURN_CODE 77
+                                  SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")
+endfunction()

@@ -1,0 +1,46 @@
+// Image files: multi-channel OpenEXR (float or half, named channels, string/float attributes) and PNG.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/result.hpp"
+
+namespace vdrig {
+
+/// A set of named float planes of equal size plus header attributes: the in-memory form of an OpenEXR file.
+/// Channel names follow OpenEXR's layer convention ("kd.R", "sh.G.07", "mask").
+struct ExrImage {
+  int width = 0;
+  int height = 0;
+  std::vector<std::string> channel_names;  // in file order
+  std::vector<cv::Mat> channels;           // CV_32FC1, height x width, same order as channel_names
+  std::map<std::string, std::string> string_attributes;
+  std::map<std::string, double> number_attributes;
+
+  /// Index of a channel or -1.
+  int find(const std::string& name) const;
+  /// Adds a CV_32FC1 plane (size must match; the first plane sets the size).
+  void add(const std::string& name, cv::Mat plane);
+};
+
+enum class ExrPixelType { kHalf, kFloat };
+
+/// Writes to `path` atomically (a temporary file renamed into place).
+Status write_exr(const std::filesystem::path& path, const ExrImage& image, ExrPixelType type = ExrPixelType::kFloat);
+/// Reads every channel as float; a missing, truncated or non-EXR file is an error value, never an abort.
+Result<ExrImage> read_exr(const std::filesystem::path& path);
+
+/// Writes an 8- or 16-bit image (1 or 3 channels, BGR order for colour as OpenCV) atomically.
+Status write_png(const std::filesystem::path& path, const cv::Mat& image);
+/// Reads an 8- or 16-bit PNG unchanged (depth kept); error if missing or undecodable.
+Result<cv::Mat> read_png(const std::filesystem::path& path);
+
+/// Writes bytes to `path` through a temporary file, fsync, rename, fsync of the folder: a reader never sees a
+/// partially written file.
+Status write_file_atomic(const std::filesystem::path& path, const std::string& bytes);
+
+}  // namespace vdrig

@@ -1,0 +1,198 @@
+#include "vdrig/core/image_io.hpp"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
+#include <ImfStringAttribute.h>
+#include <ImfDoubleAttribute.h>
+#include <ImfFloatAttribute.h>
+#include <ImfIntAttribute.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+
+namespace vdrig {
+namespace fs = std::filesystem;
+
+int ExrImage::find(const std::string& name) const {
+  for (size_t i = 0; i < channel_names.size(); ++i)
+    if (channel_names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+void ExrImage::add(const std::string& name, cv::Mat plane) {
+  VDRIG_CHECK(plane.type() == CV_32FC1, "ExrImage planes are CV_32FC1: " + name);
+  if (channels.empty()) {
+    width = plane.cols;
+    height = plane.rows;
+  }
+  VDRIG_CHECK(plane.cols == width && plane.rows == height, "ExrImage plane size mismatch: " + name);
+  VDRIG_CHECK(find(name) < 0, "duplicate ExrImage channel: " + name);
+  channel_names.push_back(name);
+  channels.push_back(plane.isContinuous() ? plane : plane.clone());
+}
+
+namespace {
+
+std::string errno_text() { return std::strerror(errno); }
+
+fs::path temp_sibling(const fs::path& path) {
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  // Built with append: GCC 12 warns falsely (-Wrestrict) on chained operator+ here.
+  std::string name = ".";
+  name.append(path.filename().string()).append(".tmp").append(std::to_string(rng() % 1000000000));
+  return path.parent_path() / name;
+}
+
+ErrorCode io_code() { return errno == ENOSPC || errno == EDQUOT ? ErrorCode::kNoSpace : ErrorCode::kIo; }
+
+Status fsync_path(const fs::path& path, bool directory) {
+  const int fd = ::open(path.c_str(), directory ? (O_RDONLY | O_DIRECTORY) : O_RDONLY);
+  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + errno_text());
+  const int rc = ::fsync(fd);
+  const ErrorCode code = io_code();
+  ::close(fd);
+  if (rc != 0) return make_error(code, "fsync " + path.string() + ": " + errno_text());
+  return Status::ok();
+}
+
+/// Moves a fully written temporary file into place durably.
+Status commit_temp(const fs::path& tmp, const fs::path& path) {
+  if (auto s = fsync_path(tmp, false); !s) {
+    fs::remove(tmp);
+    return s;
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const Error e = make_error(ErrorCode::kIo, "rename to " + path.string() + ": " + errno_text());
+    fs::remove(tmp);
+    return e;
+  }
+  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  return fsync_path(dir, true);
+}
+
+}  // namespace
+
+Status write_file_atomic(const fs::path& path, const std::string& bytes) {
+  const fs::path tmp = temp_sibling(path);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return make_error(io_code(), "create " + tmp.string() + ": " + errno_text());
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const Error e = make_error(io_code(), "write " + tmp.string() + ": " + errno_text());
+      ::close(fd);
+      fs::remove(tmp);
+      return e;
+    }
+    done += static_cast<size_t>(n);
+  }
+  ::close(fd);
+  return commit_temp(tmp, path);
+}
+
+Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type) {
+  if (image.channels.empty()) return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());
+  const fs::path tmp = temp_sibling(path);
+  try {
+    Imf::Header header(image.width, image.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    const Imf::PixelType pt = type == ExrPixelType::kHalf ? Imf::HALF : Imf::FLOAT;
+    header.insert("vdrig.format_version", Imf::IntAttribute(1));
+    for (const auto& [k, v] : image.string_attributes) header.insert(k, Imf::StringAttribute(v));
+    for (const auto& [k, v] : image.number_attributes) header.insert(k, Imf::DoubleAttribute(v));
+    for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(pt));
+    // OpenEXR converts float slices to half on write.
+    Imf::FrameBuffer fb;
+    for (size_t i = 0; i < image.channels.size(); ++i) {
+      const cv::Mat& c = image.channels[i];
+      fb.insert(image.channel_names[i],
+                Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(c.ptr<float>())),
+                           sizeof(float), c.step[0]));
+    }
+    {
+      Imf::OutputFile out(tmp.c_str(), header);
+      out.setFrameBuffer(fb);
+      out.writePixels(image.height);
+    }
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    const bool full = std::strstr(e.what(), "No space") != nullptr;
+    return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo, "writing " + path.string() + ": " + e.what());
+  }
+  return commit_temp(tmp, path);
+}
+
+Result<ExrImage> read_exr(const fs::path& path) {
+  if (!fs::exists(path)) return make_error(ErrorCode::kNotFound, "no such file " + path.string());
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imath::Box2i dw = in.header().dataWindow();
+    ExrImage img;
+    img.width = dw.max.x - dw.min.x + 1;
+    img.height = dw.max.y - dw.min.y + 1;
+    Imf::FrameBuffer fb;
+    for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) {
+      cv::Mat plane(img.height, img.width, CV_32FC1);
+      char* base = reinterpret_cast<char*>(plane.ptr<float>()) -
+                   (static_cast<ptrdiff_t>(dw.min.x) + static_cast<ptrdiff_t>(dw.min.y) * img.width) *
+                       static_cast<ptrdiff_t>(sizeof(float));
+      fb.insert(it.name(), Imf::Slice(Imf::FLOAT, base, sizeof(float), plane.step[0]));
+      img.channel_names.emplace_back(it.name());
+      img.channels.push_back(plane);
+    }
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+    for (auto it = in.header().begin(); it != in.header().end(); ++it) {
+      if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+        img.string_attributes[it.name()] = s->value();
+      else if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&it.attribute()))
+        img.number_attributes[it.name()] = d->value();
+      else if (const auto* f = dynamic_cast<const Imf::FloatAttribute*>(&it.attribute()))
+        img.number_attributes[it.name()] = f->value();
+      else if (const auto* n = dynamic_cast<const Imf::IntAttribute*>(&it.attribute()))
+        img.number_attributes[it.name()] = n->value();
+    }
+    return img;
+  } catch (const std::exception& e) {
+    return make_error(ErrorCode::kCorrupt, "reading " + path.string() + ": " + e.what());
+  }
+}
+
+Status write_png(const fs::path& path, const cv::Mat& image) {
+  if (image.empty()) return make_error(ErrorCode::kInvalidArgument, "empty image for " + path.string());
+  if (image.depth() != CV_8U && image.depth() != CV_16U)
+    return make_error(ErrorCode::kInvalidArgument, "PNG needs 8- or 16-bit data: " + path.string());
+  std::vector<uchar> bytes;
+  try {
+    if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+      return make_error(ErrorCode::kIo, "PNG encoding failed for " + path.string());
+  } catch (const cv::Exception& e) {
+    return make_error(ErrorCode::kIo, "PNG encoding failed for " + path.string() + ": " + e.what());
+  }
+  return write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
+}
+
+Result<cv::Mat> read_png(const fs::path& path) {
+  if (!fs::exists(path)) return make_error(ErrorCode::kNotFound, "no such file " + path.string());
+  cv::Mat m;
+  try {
+    m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return make_error(ErrorCode::kCorrupt, "cannot decode " + path.string() + ": " + e.what());
+  }
+  if (m.empty()) return make_error(ErrorCode::kCorrupt, "cannot decode " + path.string());
+  return m;
+}
+
+}  // namespace vdrig
