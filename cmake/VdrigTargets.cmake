@@ -14,6 +14,10 @@ endif()
 # with public headers in NAME/include/vdrig/NAME/.
 function(vdrig_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  if(NOT ARG_SOURCES)
+    message(STATUS "vdrig: module ${name} has no sources yet; not built")
+    return()
+  endif()
   add_library(vdrig_${name} STATIC ${ARG_SOURCES})
   add_library(vdrig::${name} ALIAS vdrig_${name})
   target_include_directories(vdrig_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include

@@ -1,0 +1,28 @@
+// The `vdrig` executable is a thin set of subcommands over the module libraries. Each cmd_*.cpp file adds its
+// subcommands through a CommandRegistrar at static-initialisation time (safe here: these objects are linked
+// directly into the executable, not pulled from a static library).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+
+#include "vdrig/core/result.hpp"
+
+namespace vdrig::app {
+
+using CommandSetup = std::function<void(CLI::App& root)>;
+
+struct CommandRegistrar {
+  explicit CommandRegistrar(CommandSetup setup);
+};
+
+/// Exit codes shared by every subcommand.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;   // the work failed (device, I/O, data)
+inline constexpr int kExitUsage = 2;     // bad arguments or configuration
+
+/// Ends a subcommand: logs the error (if any) and throws CLI::RuntimeError with the matching exit code.
+void finish(const Status& status);
+
+}  // namespace vdrig::app
