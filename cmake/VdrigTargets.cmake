@@ -1,6 +1,10 @@
 # Common compile options for every vdrig target.
 add_library(vdrig_options INTERFACE)
 target_compile_options(vdrig_options INTERFACE -Wall -Wextra -Wpedantic)
+# GCC 12 reports false -Wrestrict positives inside std::string's operator+ at -O2 (GCC bug 105651).
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
+  target_compile_options(vdrig_options INTERFACE -Wno-restrict)
+endif()
 if(VDRIG_WERROR)
   target_compile_options(vdrig_options INTERFACE -Werror)
 endif()

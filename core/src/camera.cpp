@@ -81,7 +81,8 @@ Result<CameraModel> CameraModel::load_yaml(const std::filesystem::path& path) {
   }
 }
 
-Status CameraModel::save_yaml(const std::filesystem::path& path, double avg_reprojection_error_px) const {
+Status CameraModel::save_yaml(const std::filesystem::path& path, double avg_reprojection_error_px,
+                              const std::function<void(cv::FileStorage&)>& extras) const {
   try {
     cv::FileStorage fs(path.string(), cv::FileStorage::WRITE);
     if (!fs.isOpened()) return make_error(ErrorCode::kIo, "cannot write " + path.string());
@@ -91,6 +92,7 @@ Status CameraModel::save_yaml(const std::filesystem::path& path, double avg_repr
     cv::Mat D = (cv::Mat_<double>(5, 1) << k1, k2, p1, p2, k3);
     fs << "camera_matrix" << K << "distortion_coefficients" << D;
     if (avg_reprojection_error_px >= 0) fs << "avg_reprojection_error" << avg_reprojection_error_px;
+    if (extras) extras(fs);
     return Status::ok();
   } catch (const cv::Exception& e) {
     return make_error(ErrorCode::kIo, path.string() + ": " + e.what());

@@ -111,10 +111,20 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
     for (const auto& [k, v] : image.string_attributes) header.insert(k, Imf::StringAttribute(v));
     for (const auto& [k, v] : image.number_attributes) header.insert(k, Imf::DoubleAttribute(v));
     for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(pt));
-    // OpenEXR converts float slices to half on write.
+    // OpenEXR does not convert pixel types on write (only on read): half channels need half slices. cv::Mat's
+    // CV_16F is IEEE binary16, the same layout as Imath::half.
     Imf::FrameBuffer fb;
+    std::vector<cv::Mat> halves;
+    halves.reserve(image.channels.size());
     for (size_t i = 0; i < image.channels.size(); ++i) {
       const cv::Mat& c = image.channels[i];
+      if (type == ExrPixelType::kHalf) {
+        halves.emplace_back();
+        c.convertTo(halves.back(), CV_16F);
+        fb.insert(image.channel_names[i], Imf::Slice(Imf::HALF, reinterpret_cast<char*>(halves.back().data),
+                                                     sizeof(uint16_t), halves.back().step[0]));
+        continue;
+      }
       fb.insert(image.channel_names[i],
                 Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(c.ptr<float>())),
                            sizeof(float), c.step[0]));

@@ -1,8 +1,25 @@
+#include "backends.hpp"
 #include "vdrig/rig/registry.hpp"
 
 namespace vdrig::rig {
 
-// Each hardware backend adds itself here, guarded by the build option of its library.
-void register_hardware_backends(BackendRegistry& /*registry*/) {}
+// Each hardware backend adds itself here, guarded by the build option of its library (see rig/CMakeLists.txt).
+void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
+#ifdef VDRIG_HAVE_MODBUS
+  register_modbus_backends(registry);
+#endif
+#ifdef VDRIG_HAVE_GPIOD
+  register_gpiod_backends(registry);
+#endif
+#ifdef VDRIG_HAVE_V4L2
+  register_v4l2_backend(registry);
+#endif
+#ifdef VDRIG_HAVE_LIBCAMERA
+  register_libcamera_backend(registry);
+#endif
+#ifdef VDRIG_HAVE_USB
+  register_usb_ptp_backend(registry);
+#endif
+}
 
 }  // namespace vdrig::rig

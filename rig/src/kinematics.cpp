@@ -1,25 +1,27 @@
 #include "vdrig/rig/kinematics.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vdrig::rig {
 namespace {
 
-Mat3d rot_x(double a) {
-  return Eigen::AngleAxisd(a, Vec3d::UnitX()).toRotationMatrix();
-}
-Mat3d rot_z(double a) {
-  return Eigen::AngleAxisd(a, Vec3d::UnitZ()).toRotationMatrix();
-}
+Mat3d rot_x(double a) { return Eigen::AngleAxisd(a, Vec3d::UnitX()).toRotationMatrix(); }
+Mat3d rot_z(double a) { return Eigen::AngleAxisd(a, Vec3d::UnitZ()).toRotationMatrix(); }
 
-/// Brings an angle into [min, max] by whole turns when possible.
-std::optional<double> wrap_into(double angle, const AxisSpec& axis) {
-  if (axis.continuous) return angle;
-  for (int k = -2; k <= 2; ++k) {
-    const double a = angle + 2.0 * kPi * k;
-    if (a >= axis.min_rad - 1e-12 && a <= axis.max_rad + 1e-12) return a;
+/// The whole-turn equivalent of `angle` nearest `preferred` that lies within [min, max] (any, for a continuous
+/// axis). Nearest matters: the first fitting turn from -2 up put pans a full turn away from zero on a +-360 deg
+/// stage, sending the stage the long way round.
+std::optional<double> wrap_into(double angle, const AxisSpec& axis, double preferred) {
+  const double nearest = preferred + std::remainder(angle - preferred, 2.0 * kPi);
+  if (axis.continuous) return nearest;
+  std::optional<double> best;
+  for (int k = -3; k <= 3; ++k) {
+    const double a = nearest + 2.0 * kPi * k;
+    if (a < axis.min_rad - 1e-12 || a > axis.max_rad + 1e-12) continue;
+    if (!best || std::abs(a - preferred) < std::abs(*best - preferred)) best = a;
   }
-  return std::nullopt;
+  return best;
 }
 
 }  // namespace
@@ -43,37 +45,38 @@ Vec3d view_direction(const RigGeometry& g, const PanTilt& pt) {
 
 std::optional<PanTilt> inverse_kinematics(const RigGeometry& g, const StageSpec& spec, const Vec3d& direction,
                                           double preferred_pan_rad) {
+  if (!direction.allFinite() || !(direction.norm() > 0.0) || !(g.camera_distance_mm > 0.0)) return std::nullopt;
   const Vec3d d = direction.normalized();
-  const SphericalDir s = spherical_from_direction(d);
-  // Two solutions on an ideal rig: (pan, tilt) and (pan + pi, -tilt). Try the positive tilt first.
-  std::optional<PanTilt> best;
+  // The camera centre in the surface frame is D u(pan, tilt) - offset, where u = (sin tilt sin pan,
+  // sin tilt cos pan, cos tilt) is the ideal view direction and D the camera distance (see surface_pose). Seeing
+  // the surface origin from d means D u = offset + lambda d with lambda > 0 and |D u| = D:
+  //   lambda^2 + 2 lambda (offset . d) + |offset|^2 - D^2 = 0,
+  // whose larger root is the only positive one while the surface origin is inside the camera's sphere. This is
+  // closed form: an earlier fixed-point iteration on (azimuth, zenith) diverged near the normal, where azimuth is
+  // ill-conditioned (errors of tens of degrees within a few degrees of the pole).
+  Vec3d u = d;
+  const Vec3d& o = g.surface_offset_mm;
+  if (!o.isZero()) {
+    const double D = g.camera_distance_mm;
+    const double od = o.dot(d);
+    const double disc = od * od - o.squaredNorm() + D * D;
+    if (!(disc >= 0.0)) return std::nullopt;
+    const double lambda = -od + std::sqrt(disc);
+    if (!(lambda > 0.0)) return std::nullopt;
+    u = (o + lambda * d) / D;
+  }
+  const SphericalDir s = spherical_from_direction(u);
+  // Two solutions: (pan, tilt) and (pan + pi, -tilt). Try the positive tilt first.
   for (int branch = 0; branch < 2; ++branch) {
     const double tilt = branch == 0 ? s.zenith_rad : -s.zenith_rad;
-    double pan = s.zenith_rad < 1e-9 ? preferred_pan_rad : kPi / 2.0 - s.azimuth_rad + (branch == 0 ? 0.0 : kPi);
-    auto pan_ok = wrap_into(pan, spec.pan);
+    const double pan = s.zenith_rad < 1e-9 ? preferred_pan_rad : kPi / 2.0 - s.azimuth_rad + (branch == 0 ? 0.0 : kPi);
+    const auto pan_ok = wrap_into(pan, spec.pan, preferred_pan_rad);
     if (!pan_ok || tilt < spec.tilt.min_rad - 1e-12 || tilt > spec.tilt.max_rad + 1e-12) continue;
-    PanTilt pt{*pan_ok, tilt};
-    if (!g.surface_offset_mm.isZero()) {
-      // With an offset surface the direction to the surface origin differs from the ideal one; refine by a few
-      // Newton steps on (azimuth, zenith) of the actual direction.
-      for (int it = 0; it < 20; ++it) {
-        const Vec3d v = view_direction(g, pt);
-        const SphericalDir sv = spherical_from_direction(v);
-        double daz = s.azimuth_rad - sv.azimuth_rad;
-        daz = std::remainder(daz, 2.0 * kPi);
-        const double dzen = s.zenith_rad - sv.zenith_rad;
-        pt.pan_rad -= (branch == 0 ? 1.0 : 1.0) * daz;
-        pt.tilt_rad += (branch == 0 ? 1.0 : -1.0) * dzen;
-        if (std::abs(daz) + std::abs(dzen) < 1e-12) break;
-      }
-      auto wrapped = wrap_into(pt.pan_rad, spec.pan);
-      if (!wrapped || pt.tilt_rad < spec.tilt.min_rad || pt.tilt_rad > spec.tilt.max_rad) continue;
-      pt.pan_rad = *wrapped;
-    }
-    best = pt;
-    break;
+    // Clamped: a target 1e-12 past a limit would be refused by a stage that checks its limits strictly.
+    return PanTilt{std::clamp(*pan_ok, spec.pan.min_rad, spec.pan.max_rad),
+                   std::clamp(tilt, spec.tilt.min_rad, spec.tilt.max_rad)};
   }
-  return best;
+  return std::nullopt;
 }
 
 }  // namespace vdrig::rig

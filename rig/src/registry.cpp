@@ -22,8 +22,8 @@ template <typename Device>
 Result<std::unique_ptr<Device>> build(const std::map<std::string, Factory<Device>>& factories, const char* kind,
                                       const nlohmann::json& section, RigContext& ctx) {
   if (!section.is_object() || !section.contains("backend") || !section["backend"].is_string())
-    return make_error(ErrorCode::kInvalidArgument,
-                      std::string("rig config: \"") + kind + "\" needs a \"backend\" name; known: " + join(keys(factories)));
+    return make_error(ErrorCode::kInvalidArgument, std::string("rig config: \"") + kind +
+                                                       "\" needs a \"backend\" name; known: " + join(keys(factories)));
   const std::string name = section["backend"].get<std::string>();
   const auto it = factories.find(name);
   if (it == factories.end())

@@ -3,10 +3,15 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/result.hpp"
+
+namespace cv {
+class FileStorage;
+}
 
 namespace vdrig {
 
@@ -34,8 +39,11 @@ struct CameraModel {
   bool is_valid(std::string* why) const;
 
   /// Reads/writes OpenCV-compatible YAML (camera_matrix, distortion_coefficients, image_width, image_height).
+  /// `extras`, if set, writes further top-level entries into the same file (e.g. calib's per-view errors and
+  /// standard deviations), after the model's.
   static Result<CameraModel> load_yaml(const std::filesystem::path& path);
-  Status save_yaml(const std::filesystem::path& path, double avg_reprojection_error_px = -1) const;
+  Status save_yaml(const std::filesystem::path& path, double avg_reprojection_error_px = -1,
+                   const std::function<void(cv::FileStorage&)>& extras = {}) const;
 };
 
 /// Pose of the surface in a camera: p_cam = R p_surface + t (t in mm).

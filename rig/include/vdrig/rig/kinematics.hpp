@@ -37,8 +37,9 @@ Vec3d view_direction(const RigGeometry& geometry, const PanTilt& pt);
 
 /// Inverse kinematics: the pan/tilt that looks at the surface origin from `direction` (unit, surface frame),
 /// within the stage's axis limits; nullopt when no reachable position gives it. At the pole (zenith ~ 0) pan is
-/// free and `preferred_pan_rad` is kept. On an ideal rig the result is exact; with a surface offset the
-/// direction is the one to the surface origin.
+/// free and `preferred_pan_rad` is kept; elsewhere, of the whole-turn equivalents of the pan within the limits,
+/// the one nearest `preferred_pan_rad` is returned. Exact (closed form) on an ideal rig and with a surface offset,
+/// where the direction is the one to the surface origin.
 std::optional<PanTilt> inverse_kinematics(const RigGeometry& geometry, const StageSpec& spec, const Vec3d& direction,
                                           double preferred_pan_rad = 0.0);
 

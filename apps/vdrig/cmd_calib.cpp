@@ -1,0 +1,210 @@
+// `vdrig calib intrinsics|response` and `vdrig hdr merge`: calibration and HDR merging from image files.
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "vdrig/calib/hdr.hpp"
+#include "vdrig/calib/intrinsics.hpp"
+#include "vdrig/calib/response_recovery.hpp"
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::app {
+namespace {
+
+Error usage(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); }
+
+/// "0.004", "1/250" -> seconds.
+Result<double> parse_seconds(const std::string& s) {
+  try {
+    size_t used = 0;
+    if (const auto slash = s.find('/'); slash != std::string::npos) {
+      const double num = std::stod(s.substr(0, slash), &used);
+      const double den = std::stod(s.substr(slash + 1));
+      if (used != slash || !(den > 0)) throw std::invalid_argument(s);
+      return num / den;
+    }
+    const double v = std::stod(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    return usage("bad exposure time '" + s + "' (seconds, e.g. 0.004 or 1/250)");
+  }
+}
+
+/// Loads "IMAGE:EXPOSURE_S" items as Frames (grey images become 3-channel), sorted by exposure.
+/// `bits` <= 0: the container's (8 or 16).
+Result<std::vector<Frame>> load_bracket(const std::vector<std::string>& items, int bits) {
+  std::vector<Frame> frames;
+  for (const auto& item : items) {
+    const auto colon = item.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == item.size())
+      return usage("bracket item '" + item + "' is not IMAGE:EXPOSURE_S");
+    auto t = parse_seconds(item.substr(colon + 1));
+    if (!t) return t.error();
+    const std::string path = item.substr(0, colon);
+    auto img = read_png(path);  // any format OpenCV decodes, depth unchanged
+    if (!img) return img.error();
+    Frame f;
+    f.image = std::move(*img);
+    if (f.image.channels() == 1) cv::cvtColor(f.image, f.image, cv::COLOR_GRAY2BGR);
+    if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+    f.exposure_s = *t;
+    f.bits = bits > 0 ? bits : (f.image.depth() == CV_16U ? 16 : 8);
+    frames.push_back(std::move(f));
+  }
+  std::stable_sort(frames.begin(), frames.end(),
+                   [](const Frame& a, const Frame& b) { return a.exposure_s < b.exposure_s; });
+  return frames;
+}
+
+Status run_intrinsics(const std::string& board, double square_m, const std::vector<std::string>& paths,
+                      const std::string& out, const calib::IntrinsicsOptions& opt) {
+  int cols = 0, rows = 0;
+  char x = 0;
+  std::istringstream bs(board);
+  if (!(bs >> cols >> x >> rows) || (x != 'x' && x != 'X') || !bs.eof())
+    return usage("--board wants COLSxROWS inner corners, e.g. 9x6; got '" + board + "'");
+  std::vector<cv::Mat> images;
+  for (const auto& p : paths) {
+    cv::Mat m = cv::imread(p, cv::IMREAD_GRAYSCALE);
+    if (m.empty()) return make_error(ErrorCode::kNotFound, "cannot read image " + p);
+    images.push_back(m);
+  }
+  auto res = calib::calibrate_intrinsics(images, cols, rows, square_m, opt);
+  if (!res) return res.error();
+  const auto& c = res->camera;
+  const auto& s = res->std_dev;
+  std::printf("view  rms_px  status  image\n");
+  for (const auto& v : res->views)
+    std::printf("%4zu  %6.3f  %-7s %s\n", v.image_index, v.rms_px,
+                !v.board_found ? "nofound"
+                : v.outlier    ? "OUTLIER"
+                : v.used       ? "ok"
+                               : "dropped",
+                paths[v.image_index].c_str());
+  std::printf("RMS %.4f px over %zu views (%dx%d)\n", res->rms_px, res->used_views(), c.width, c.height);
+  std::printf("fx %10.3f +- %.3f   fy %10.3f +- %.3f\n", c.fx, s.fx, c.fy, s.fy);
+  std::printf("cx %10.3f +- %.3f   cy %10.3f +- %.3f\n", c.cx, s.cx, c.cy, s.cy);
+  std::printf("k1 %10.5f +- %.5f   k2 %10.5f +- %.5f   k3 %10.5f +- %.5f\n", c.k1, s.k1, c.k2, s.k2, c.k3, s.k3);
+  std::printf("p1 %10.6f +- %.6f   p2 %10.6f +- %.6f\n", c.p1, s.p1, c.p2, s.p2);
+  VDRIG_TRY(res->save_yaml(out));
+  std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
+}
+
+Status run_response(const std::vector<std::string>& items, const std::string& out,
+                    const calib::ResponseRecoveryOptions& opt) {
+  auto frames = load_bracket(items, 0);
+  if (!frames) return frames.error();
+  auto rec = calib::recover_response(*frames, opt);
+  if (!rec) return rec.error();
+  for (int c = 0; c < 3; ++c)
+    std::printf("channel %c: %d samples, rms log residual %.4f, inverse(mid) %.4f\n", "BGR"[c], rec -> samples[c],
+                rec -> rms_residual_log[c], rec -> curve.inverse(c, rec->curve.max_code() / 2.0));
+  VDRIG_TRY(write_file_atomic(out, rec->curve.to_json().dump(1)));
+  std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
+}
+
+Status run_merge(const std::string& response_path, int bits, const std::vector<std::string>& items,
+                 const std::string& out, bool half) {
+  ResponseCurve response;
+  if (!response_path.empty()) {
+    std::ifstream in(response_path);
+    if (!in) return make_error(ErrorCode::kNotFound, "cannot read " + response_path);
+    nlohmann::json j;
+    try {
+      in >> j;
+    } catch (const nlohmann::json::exception& e) {
+      return make_error(ErrorCode::kCorrupt, response_path + ": " + e.what());
+    }
+    auto r = ResponseCurve::from_json(j);
+    if (!r) return r.error();
+    response = std::move(*r);
+    bits = response.bits();
+  }
+  auto frames = load_bracket(items, bits);
+  if (!frames) return frames.error();
+  auto hdr = calib::merge_hdr(*frames, response);
+  if (!hdr) return hdr.error();
+  const double sat = cv::countNonZero(hdr->mask & calib::kHdrSaturated),
+               blk = cv::countNonZero(hdr->mask & calib::kHdrBlack);
+  const double n = hdr->mask.total();
+  std::printf("merged %zu exposures: %.2f%% pixels saturated everywhere, %.2f%% black everywhere\n", frames->size(),
+              100 * sat / n, 100 * blk / n);
+  VDRIG_TRY(calib::write_hdr_exr(out, *hdr, half ? ExrPixelType::kHalf : ExrPixelType::kFloat));
+  std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
+}
+
+const CommandRegistrar registrar([](CLI::App& root) {
+  auto* calib = root.add_subcommand("calib", "camera calibration: intrinsics from a chessboard, response curve");
+  calib->require_subcommand(1);
+
+  {
+    auto* cmd = calib->add_subcommand("intrinsics", "intrinsics (Brown-Conrady) from chessboard photographs");
+    struct Args {
+      std::string board = "9x6", out = "camera.yml";
+      double square_m = 0.025;
+      std::vector<std::string> images;
+      calib::IntrinsicsOptions opt;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("--board", a->board, "inner corners COLSxROWS")->capture_default_str();
+    cmd->add_option("--square", a->square_m, "square size, metres")->capture_default_str();
+    cmd->add_option("--out", a->out, "OpenCV YAML to write")->capture_default_str();
+    cmd->add_flag("--fix-aspect", a->opt.fix_aspect_ratio, "hold fx = fy (CALIB_FIX_ASPECT_RATIO)");
+    cmd->add_flag("--drop-outliers", a->opt.drop_outliers, "calibrate again without outlier views");
+    cmd->add_option("--outlier-factor", a->opt.outlier_factor, "outlier if view RMS > factor x median")
+        ->capture_default_str();
+    cmd->add_option("--subpix-half-window", a->opt.subpix_half_window,
+                    "cornerSubPix half window, px (OpenCV's samples use 11)")
+        ->capture_default_str();
+    cmd->add_option("images", a->images, "chessboard images")->required();
+    cmd->callback([a] { finish(run_intrinsics(a->board, a->square_m, a->images, a->out, a->opt)); });
+  }
+  {
+    auto* cmd = calib->add_subcommand("response", "response curve (Debevec-Malik) from a bracket of a static scene");
+    struct Args {
+      std::vector<std::string> bracket;
+      std::string out = "response.json";
+      calib::ResponseRecoveryOptions opt;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("--bracket", a->bracket, "IMAGE:EXPOSURE_S items (seconds, e.g. a.png:1/250)")->required();
+    cmd->add_option("--out", a->out, "response JSON to write")->capture_default_str();
+    cmd->add_option("--lambda", a->opt.lambda, "smoothness weight")->capture_default_str();
+    cmd->add_option("--samples", a->opt.samples, "pixels per channel (0: automatic)")->capture_default_str();
+    cmd->callback([a] { finish(run_response(a->bracket, a->out, a->opt)); });
+  }
+
+  auto* hdr = root.add_subcommand("hdr", "high dynamic range merging");
+  hdr->require_subcommand(1);
+  {
+    auto* cmd = hdr->add_subcommand("merge", "merge a bracket to relative radiance (OpenEXR: R, G, B, mask)");
+    struct Args {
+      std::string response, out = "out.exr";
+      int bits = 0;
+      bool full_float = false;
+      std::vector<std::string> items;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("--response", a->response, "response JSON (vdrig calib response); none: linear raw camera");
+    cmd->add_option("--bits", a->bits, "significant bits of a linear camera's codes (default: 8 or 16)");
+    cmd->add_option("--out", a->out, "OpenEXR to write")->capture_default_str();
+    cmd->add_flag("--float", a->full_float, "32-bit float channels (default half)");
+    cmd->add_option("items", a->items, "IMAGE:EXPOSURE_S items")->required();
+    cmd->callback([a] { finish(run_merge(a->response, a->bits, a->items, a->out, !a->full_float)); });
+  }
+});
+
+}  // namespace
+}  // namespace vdrig::app

@@ -1,0 +1,71 @@
+// Camera intrinsics from chessboard photographs (OpenCV's detector and Zhang's method via cv::calibrateCamera).
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/camera.hpp"
+#include "vdrig/core/result.hpp"
+
+namespace vdrig::calib {
+
+struct IntrinsicsOptions {
+  /// Holds fx / fy at its initial value (1 unless the caller seeds it): what OpenCV's sample used for the reference
+  /// left_intrinsics.yml. Off by default: a real sensor's pixels need not be square.
+  bool fix_aspect_ratio = false;
+  /// A view whose RMS reprojection error exceeds this multiple of the median view RMS is an outlier.
+  double outlier_factor = 3.0;
+  /// Calibrate again without the outlier views (the report keeps every view's error from the final fit).
+  bool drop_outliers = false;
+  /// cornerSubPix half window, pixels: 5 gives an 11x11 window. OpenCV's samples pass 11 (a 23x23 window), which on
+  /// small squares reaches the neighbouring corners: on OpenCV's left*.jpg it corrupts one view (1.2 px RMS) and
+  /// doubles the overall RMS (0.41 vs 0.20 px).
+  int subpix_half_window = 5;
+};
+
+/// One input image's part in the calibration.
+struct IntrinsicsView {
+  size_t image_index = 0;
+  bool board_found = false;
+  bool used = false;     // in the final fit (found, and not dropped as an outlier)
+  bool outlier = false;  // rms_px > outlier_factor * median
+  double rms_px = 0.0;   // RMS reprojection error of this view's corners with the final model
+  ViewPose pose;         // board frame -> camera, t in millimetres (board origin at its first inner corner)
+};
+
+/// One standard deviation of each estimated parameter (from calibrateCamera's stdDeviationsIntrinsics); zero for
+/// a parameter held fixed, except fx under fix_aspect_ratio, which carries fy's (scaled by fx / fy).
+struct IntrinsicsStdDev {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
+};
+
+struct IntrinsicsResult {
+  CameraModel camera;
+  IntrinsicsStdDev std_dev;
+  double rms_px = 0.0;  // overall RMS reprojection error of the final fit (calibrateCamera's return value)
+  std::vector<IntrinsicsView> views;  // one per input image, input order
+  int board_cols = 0, board_rows = 0;
+  double square_m = 0.0;
+  bool fix_aspect_ratio = false;
+
+  size_t used_views() const;
+  /// Writes OpenCV-compatible YAML through CameraModel::save_yaml (camera_matrix, distortion_coefficients,
+  /// image_width/height, avg_reprojection_error) with, in the same map, the calibration record OpenCV's sample writes:
+  /// nframes, board_width/height, square_size, flags, per_view_reprojection_errors, plus vdrig's
+  /// std_dev_intrinsics (fx fy cx cy k1 k2 p1 p2 k3) and view_indices/outlier_views.
+  Status save_yaml(const std::filesystem::path& path) const;
+};
+
+/// Finds the inner corners of a `board_cols` x `board_rows` chessboard (cv::findChessboardCorners, refined by
+/// cv::cornerSubPix) in every image (8-bit, grey or BGR, all the same size) and fits the full Brown-Conrady model
+/// (k1, k2, p1, p2, k3) with cv::calibrateCamera (the overload reporting standard deviations and per-view errors).
+/// Errors: kInvalidArgument for no images, bad board or square size, differing image sizes, unsupported types, or
+/// fewer than 3 views with the board found.
+Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, int board_cols, int board_rows,
+                                              double square_m, const IntrinsicsOptions& options = {});
+
+}  // namespace vdrig::calib

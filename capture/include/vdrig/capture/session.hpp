@@ -1,0 +1,112 @@
+// Session: one capture on disk, the unit every later stage reads.
+//
+//   SESSION/manifest.json   what was planned: format version, rig config, scheme, the planned views (direction,
+//                           pan/tilt target) and exposures, software version. Written once, atomically.
+//   SESSION/journal.jsonl   append-only, one JSON line per completed frame, written (and fsync'd) only after the
+//                           frame's image file is fsync'd and renamed into place. The journal is the truth: a frame
+//                           file without a journal line is an interrupted write and is ignored (and overwritten).
+//   SESSION/frames/         view_VVVV_eEE.png (8-bit or 16-bit PNG, BGR codes as the camera delivered them).
+//   Later stages write their own subfolders (hdr/, calib/, obs/, maps/, renders/).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/frame.hpp"
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/core/result.hpp"
+
+namespace vdrig::capture {
+
+inline constexpr int kSessionFormatVersion = 1;
+
+/// One planned view: where the camera should look from (surface frame) and the stage target that gives it.
+struct PlannedView {
+  int index = 0;
+  Vec3d direction = Vec3d::UnitZ();
+  PanTilt target;
+};
+
+/// What the session intends to capture. Angles are stored in degrees in the JSON (an edge).
+struct Manifest {
+  int format_version = kSessionFormatVersion;
+  std::string software_version;
+  std::string created_utc;
+  nlohmann::json rig_config;   // the rig config the session was started with
+  std::string scheme;          // e.g. "latlong:6"
+  std::string bracket;         // e.g. "fixed:0.01" or "auto"
+  std::vector<double> exposures_s;  // for fixed brackets
+  std::vector<PlannedView> views;
+  double surface_width_mm = 1000.0;
+  double surface_height_mm = 1000.0;
+  nlohmann::json extra = nlohmann::json::object();  // stage-specific additions (kept on rewrite)
+
+  nlohmann::json to_json() const;
+  static Result<Manifest> from_json(const nlohmann::json& j);
+};
+
+/// A completed frame as recorded in the journal.
+struct FrameRecord {
+  int view = 0;
+  int bracket_index = 0;
+  std::string file;  // relative to the session folder
+  double exposure_s = 0.0;
+  double gain = 1.0;
+  int bits = 8;
+  PanTilt commanded;
+  PanTilt measured;
+  int64_t timestamp_ns = 0;
+  uint64_t sequence = 0;
+  bool saturated = false;  // any pixel at the maximum code (in the region of interest)
+
+  nlohmann::json to_json() const;
+  static Result<FrameRecord> from_json(const nlohmann::json& j);
+};
+
+class Session {
+ public:
+  /// Creates the folder (must not exist or be empty) and writes the manifest.
+  static Result<Session> create(const std::filesystem::path& dir, Manifest manifest);
+  /// Opens an existing session; reads the manifest and replays the journal. A torn last journal line (a crash
+  /// mid-append) is dropped with a warning; any other malformed line is kCorrupt.
+  static Result<Session> open(const std::filesystem::path& dir);
+
+  const std::filesystem::path& dir() const { return dir_; }
+  const Manifest& manifest() const { return manifest_; }
+  const std::vector<FrameRecord>& frames() const { return frames_; }
+
+  /// Frames of one view, in bracket order.
+  std::vector<FrameRecord> frames_of_view(int view) const;
+  /// Whether a view has all its frames (its journal has a "view complete" marker).
+  bool view_complete(int view) const { return complete_views_.count(view) > 0; }
+  int completed_view_count() const { return static_cast<int>(complete_views_.size()); }
+
+  /// Writes the image (atomically, fsync'd) and then appends + fsyncs its journal line.
+  Result<FrameRecord> append_frame(int view, int bracket_index, const Frame& frame, bool saturated);
+  /// Marks a view complete (journal line); a view is only skipped on resume once it is complete.
+  Status mark_view_complete(int view);
+  /// Loads a recorded frame's pixels (error if missing or undecodable).
+  Result<cv::Mat> load_image(const FrameRecord& record) const;
+
+  /// Rewrites the manifest's `extra` section atomically (stages record their settings there).
+  Status update_extra(const nlohmann::json& extra);
+
+ private:
+  Session() = default;
+  Status append_journal(const nlohmann::json& line);
+
+  std::filesystem::path dir_;
+  Manifest manifest_;
+  std::vector<FrameRecord> frames_;
+  std::map<int, bool> complete_views_;
+};
+
+/// The software version written into manifests.
+std::string software_version();
+
+}  // namespace vdrig::capture

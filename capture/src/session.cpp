@@ -1,0 +1,255 @@
+#include "vdrig/capture/session.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::capture {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string software_version() { return "vdrig 0.1.0"; }
+
+namespace {
+
+json pan_tilt_json(const PanTilt& p) { return {{"pan_deg", rad_to_deg(p.pan_rad)}, {"tilt_deg", rad_to_deg(p.tilt_rad)}}; }
+PanTilt pan_tilt_from(const json& j) {
+  return {deg_to_rad(j.at("pan_deg").get<double>()), deg_to_rad(j.at("tilt_deg").get<double>())};
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+}  // namespace
+
+json Manifest::to_json() const {
+  json views_json = json::array();
+  for (const auto& v : views) {
+    const SphericalDir s = spherical_from_direction(v.direction);
+    views_json.push_back({{"index", v.index},
+                          {"direction", {v.direction.x(), v.direction.y(), v.direction.z()}},
+                          {"azimuth_deg", rad_to_deg(s.azimuth_rad)},
+                          {"zenith_deg", rad_to_deg(s.zenith_rad)},
+                          {"target", pan_tilt_json(v.target)}});
+  }
+  return {{"format", "vdrig-session"},
+          {"format_version", format_version},
+          {"software_version", software_version},
+          {"created_utc", created_utc},
+          {"rig_config", rig_config},
+          {"scheme", scheme},
+          {"bracket", bracket},
+          {"exposures_s", exposures_s},
+          {"surface_size_mm", {surface_width_mm, surface_height_mm}},
+          {"views", views_json},
+          {"extra", extra}};
+}
+
+Result<Manifest> Manifest::from_json(const json& j) {
+  try {
+    if (j.value("format", "") != "vdrig-session")
+      return make_error(ErrorCode::kCorrupt, "manifest: not a vdrig session manifest");
+    Manifest m;
+    m.format_version = j.at("format_version").get<int>();
+    if (m.format_version != kSessionFormatVersion)
+      return make_error(ErrorCode::kCorrupt, "manifest: unsupported format_version " + std::to_string(m.format_version));
+    m.software_version = j.value("software_version", "");
+    m.created_utc = j.value("created_utc", "");
+    m.rig_config = j.value("rig_config", json::object());
+    m.scheme = j.value("scheme", "");
+    m.bracket = j.value("bracket", "");
+    m.exposures_s = j.value("exposures_s", std::vector<double>{});
+    const auto size = j.at("surface_size_mm");
+    m.surface_width_mm = size.at(0).get<double>();
+    m.surface_height_mm = size.at(1).get<double>();
+    for (const auto& v : j.at("views")) {
+      PlannedView pv;
+      pv.index = v.at("index").get<int>();
+      const auto d = v.at("direction");
+      pv.direction = Vec3d(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>());
+      pv.target = pan_tilt_from(v.at("target"));
+      if (pv.index != static_cast<int>(m.views.size()))
+        return make_error(ErrorCode::kCorrupt, "manifest: views must be indexed 0..N-1 in order");
+      m.views.push_back(pv);
+    }
+    m.extra = j.value("extra", json::object());
+    return m;
+  } catch (const json::exception& e) {
+    return make_error(ErrorCode::kCorrupt, std::string("manifest: ") + e.what());
+  }
+}
+
+json FrameRecord::to_json() const {
+  return {{"type", "frame"},         {"view", view},
+          {"bracket", bracket_index}, {"file", file},
+          {"exposure_s", exposure_s}, {"gain", gain},
+          {"bits", bits},             {"commanded", pan_tilt_json(commanded)},
+          {"measured", pan_tilt_json(measured)}, {"timestamp_ns", timestamp_ns},
+          {"sequence", sequence},     {"saturated", saturated}};
+}
+
+Result<FrameRecord> FrameRecord::from_json(const json& j) {
+  try {
+    FrameRecord r;
+    r.view = j.at("view").get<int>();
+    r.bracket_index = j.at("bracket").get<int>();
+    r.file = j.at("file").get<std::string>();
+    r.exposure_s = j.at("exposure_s").get<double>();
+    r.gain = j.value("gain", 1.0);
+    r.bits = j.value("bits", 8);
+    r.commanded = pan_tilt_from(j.at("commanded"));
+    r.measured = pan_tilt_from(j.at("measured"));
+    r.timestamp_ns = j.value("timestamp_ns", int64_t{0});
+    r.sequence = j.value("sequence", uint64_t{0});
+    r.saturated = j.value("saturated", false);
+    if (r.file.find("..") != std::string::npos || r.file.empty() || r.file[0] == '/')
+      return make_error(ErrorCode::kCorrupt, "journal: frame file name escapes the session: " + r.file);
+    return r;
+  } catch (const json::exception& e) {
+    return make_error(ErrorCode::kCorrupt, std::string("journal frame: ") + e.what());
+  }
+}
+
+Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_empty(dir, ec))
+    return make_error(ErrorCode::kInvalidArgument, "session folder " + dir.string() + " exists and is not empty");
+  fs::create_directories(dir / "frames", ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
+  if (manifest.software_version.empty()) manifest.software_version = software_version();
+  if (manifest.created_utc.empty()) manifest.created_utc = utc_now();
+  VDRIG_TRY(write_file_atomic(dir / "manifest.json", manifest.to_json().dump(2) + "\n"));
+  VDRIG_TRY(write_file_atomic(dir / "journal.jsonl", ""));
+  Session s;
+  s.dir_ = dir;
+  s.manifest_ = std::move(manifest);
+  return s;
+}
+
+Result<Session> Session::open(const fs::path& dir) {
+  const fs::path manifest_path = dir / "manifest.json";
+  if (!fs::exists(manifest_path)) return make_error(ErrorCode::kNotFound, "no session at " + dir.string());
+  Session s;
+  s.dir_ = dir;
+  {
+    std::ifstream in(manifest_path);
+    json j = json::parse(in, nullptr, false);
+    if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": not valid JSON");
+    auto m = Manifest::from_json(j);
+    if (!m) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": " + m.error().message);
+    s.manifest_ = std::move(m.value());
+  }
+  std::ifstream journal(dir / "journal.jsonl", std::ios::binary);
+  if (!journal) return make_error(ErrorCode::kCorrupt, "session " + dir.string() + " has no journal.jsonl");
+  std::stringstream buf;
+  buf << journal.rdbuf();
+  const std::string text = buf.str();
+  size_t pos = 0;
+  int line_no = 0;
+  while (pos < text.size()) {
+    const size_t end = text.find('\n', pos);
+    ++line_no;
+    if (end == std::string::npos) {
+      // No newline: the process died while appending this line. It was never acknowledged; drop it.
+      log::get("capture")->warn("session {}: dropping torn last journal line {}", dir.string(), line_no);
+      break;
+    }
+    const std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (line.empty()) continue;
+    json j = json::parse(line, nullptr, false);
+    if (j.is_discarded())
+      return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + " is not valid JSON");
+    const std::string type = j.value("type", "");
+    if (type == "frame") {
+      auto r = FrameRecord::from_json(j);
+      if (!r) return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + ": " + r.error().message);
+      s.frames_.push_back(r.value());
+    } else if (type == "view_complete") {
+      s.complete_views_[j.value("view", -1)] = true;
+    }  // other types (events, faults) are informational
+  }
+  return s;
+}
+
+std::vector<FrameRecord> Session::frames_of_view(int view) const {
+  std::vector<FrameRecord> out;
+  for (const auto& f : frames_)
+    if (f.view == view) out.push_back(f);
+  // A resumed view may have frames of an interrupted attempt before its complete set: keep the last per bracket.
+  std::map<int, FrameRecord> last;
+  for (const auto& f : out) last[f.bracket_index] = f;
+  out.clear();
+  for (auto& [k, f] : last) out.push_back(f);
+  return out;
+}
+
+Status Session::append_journal(const json& line) {
+  const fs::path path = dir_ / "journal.jsonl";
+  const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
+  const std::string text = line.dump() + "\n";
+  // One write() of a short line to an O_APPEND file; a crash leaves at most a torn last line (dropped on open).
+  const ssize_t n = ::write(fd, text.data(), text.size());
+  const int write_errno = errno;
+  const int rc = n == static_cast<ssize_t>(text.size()) ? ::fsync(fd) : -1;
+  const int sync_errno = errno;
+  ::close(fd);
+  if (n != static_cast<ssize_t>(text.size())) {
+    const bool full = write_errno == ENOSPC || write_errno == EDQUOT;
+    return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo, "append to journal: " + std::string(std::strerror(write_errno)));
+  }
+  if (rc != 0) return make_error(ErrorCode::kIo, "fsync journal: " + std::string(std::strerror(sync_errno)));
+  return Status::ok();
+}
+
+Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Frame& frame, bool saturated) {
+  char name[64];
+  std::snprintf(name, sizeof name, "frames/view_%04d_e%02d.png", view, bracket_index);
+  VDRIG_TRY(write_png(dir_ / name, frame.image));
+  FrameRecord r;
+  r.view = view;
+  r.bracket_index = bracket_index;
+  r.file = name;
+  r.exposure_s = frame.exposure_s;
+  r.gain = frame.gain;
+  r.bits = frame.bits;
+  r.commanded = frame.commanded;
+  r.measured = frame.measured;
+  r.timestamp_ns = frame.timestamp_ns;
+  r.sequence = frame.sequence;
+  r.saturated = saturated;
+  VDRIG_TRY(append_journal(r.to_json()));
+  frames_.push_back(r);
+  return r;
+}
+
+Status Session::mark_view_complete(int view) {
+  VDRIG_TRY(append_journal({{"type", "view_complete"}, {"view", view}}));
+  complete_views_[view] = true;
+  return Status::ok();
+}
+
+Result<cv::Mat> Session::load_image(const FrameRecord& record) const { return read_png(dir_ / record.file); }
+
+Status Session::update_extra(const json& extra) {
+  manifest_.extra = extra;
+  return write_file_atomic(dir_ / "manifest.json", manifest_.to_json().dump(2) + "\n");
+}
+
+}  // namespace vdrig::capture

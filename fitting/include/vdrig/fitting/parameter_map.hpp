@@ -1,0 +1,71 @@
+// ParameterMap: a fitted model per texel, stored as one multi-channel OpenEXR file.
+//
+// Channels (float): Phong  kd.R kd.G kd.B, ks<k>.R/G/B, r<k>.x/y/z, m (shared) or m<k> (per lobe), k = 0..K-1;
+//                   SH / HSH  sh.R.<ii> / hsh.R.<ii> (coefficient index ii = l(l+1)+m, two digits), same for G, B.
+//   quality         rms.R/G/B (root mean square residual), mpe.R/G/B (mean percentage error), n (samples used),
+//                   holdout.R/G/B (RMS on held-out views, when views were held out).
+// Header attributes: vdrig.model ("phong", "sh-zh", "sh-lsop", "sh-ls", "hsh"), vdrig.lobes, vdrig.shared_m,
+//                    vdrig.bands, vdrig.surface_width_mm, vdrig.surface_height_mm, vdrig.source_session.
+// Texel (s, t) is pixel (x = s, y = t) of the image, so row 0 holds the texels at the smallest y.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/fitting/phong.hpp"
+
+namespace vdrig::fitting {
+
+inline constexpr int kParameterMapFormatVersion = 1;
+
+/// Which model a map holds.
+struct ModelDescriptor {
+  std::string kind = "phong";  // "phong", "sh-zh", "sh-lsop", "sh-ls", "hsh"
+  int lobes = 1;               // Phong
+  bool shared_shininess = true;
+  int bands = 0;               // SH / HSH: n bands, n^2 coefficients per channel
+
+  /// Parses "phong:1", "phong:auto", "phong:2:per-lobe-m", "sh-zh:6", "sh-lsop:6", "sh-ls:6", "hsh:5".
+  static Result<ModelDescriptor> parse(const std::string& spec);
+  std::string to_string() const;
+  int coefficients_per_channel() const { return bands * bands; }
+};
+
+class ParameterMap {
+ public:
+  ParameterMap() = default;
+  ParameterMap(const ModelDescriptor& model, int texels_s, int texels_t, double width_mm, double height_mm);
+
+  const ModelDescriptor& model() const { return model_; }
+  int texels_s() const { return image_.width; }
+  int texels_t() const { return image_.height; }
+  double width_mm() const { return width_mm_; }
+  double height_mm() const { return height_mm_; }
+  ExrImage& image() { return image_; }
+  const ExrImage& image() const { return image_; }
+
+  /// Channel value at texel (s, t); the channel must exist.
+  float& at(const std::string& channel, int s, int t);
+  float at(const std::string& channel, int s, int t) const;
+  bool has(const std::string& channel) const { return image_.find(channel) >= 0; }
+
+  void set_phong(int s, int t, const PhongParams& params);
+  PhongParams phong(int s, int t) const;
+  void set_quality(int s, int t, const FitQuality& q);
+
+  /// RGB radiance of texel (s, t) toward unit direction v (surface frame), whatever the model.
+  Vec3d evaluate(int s, int t, const Vec3d& v) const;
+
+  void set_source_session(const std::string& s) { image_.string_attributes["vdrig.source_session"] = s; }
+
+  Status write(const std::filesystem::path& path, ExrPixelType type = ExrPixelType::kFloat) const;
+  static Result<ParameterMap> read(const std::filesystem::path& path);
+
+ private:
+  ModelDescriptor model_;
+  double width_mm_ = 0, height_mm_ = 0;
+  ExrImage image_;
+};
+
+}  // namespace vdrig::fitting

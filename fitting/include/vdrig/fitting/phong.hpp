@@ -1,0 +1,95 @@
+// Modified Phong with K lobes, per colour channel c:   I_c(v) = Kd_c + sum_k Ks_kc max(0, v . r_k)^m_k
+// (design notes). With one lobe: 10 parameters (Kd RGB, Ks RGB, r xyz, m). m is shared by all lobes (as the source
+// method) or one per lobe.
+//
+// Fitting (fit_phong): non-linear least squares with Ceres, one residual block per texel holding every
+// observation (3 residuals each), automatic derivatives. Parameters: Kd, Ks >= 0 (bounds), r_k as (azimuth, zenith)
+// with zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by construction), log(m) in
+// [0, log(max_shininess)] (m >= 1; log keeps the steps in m proportional). Initialisation: r_0 at the brightest
+// observation, m by a coarse search (linear least squares for Kd, Ks at each candidate m); for K > 1 lobe k starts at
+// the peak of the previous fit's residual.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/fitting/obsmap.hpp"
+
+namespace vdrig::fitting {
+
+struct PhongLobe {
+  Vec3d ks = Vec3d::Zero();
+  Vec3d direction = Vec3d::UnitZ();  // r_k, unit, upper hemisphere
+  double shininess = 1.0;            // m_k (all equal when shared)
+};
+
+struct PhongParams {
+  Vec3d kd = Vec3d::Zero();
+  std::vector<PhongLobe> lobes;
+
+  /// RGB radiance toward unit direction v.
+  Vec3d evaluate(const Vec3d& v) const;
+};
+
+enum class ResidualMode {
+  kAbsolute,  // I_model - I_observed: fits highlights best, lets them dominate
+  kRelative,  // (I_model - I_observed) / (I_observed + floor): every sample weighs alike over the dynamic range
+};
+
+struct PhongFitOptions {
+  int lobes = 1;              // 1..4
+  bool shared_shininess = true;
+  double max_shininess = 10000.0;
+  int max_iterations = 100;
+  ResidualMode residual = ResidualMode::kAbsolute;
+  double relative_floor = 1e-3;  // added to |observed| in kRelative mode
+
+  bool is_valid(std::string* why) const;
+};
+
+/// Fit quality per colour channel.
+struct FitQuality {
+  Vec3d rms = Vec3d::Zero();               // root mean square residual
+  Vec3d mean_percent = Vec3d::Zero();      // mean of |residual| / observed * 100 over samples with observed > 0
+  int samples = 0;
+};
+
+struct PhongFit {
+  PhongParams params;
+  FitQuality quality;
+  double cost = 0.0;  // 0.5 * sum of squared residuals (as Ceres)
+  bool converged = false;
+};
+
+/// Fits one texel. Needs at least (parameter count / 3 + 1) observations; otherwise returns a fit with Kd the mean
+/// and no lobe energy, converged = false.
+PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& options);
+
+/// Quality of any RGB model on observations.
+template <typename Model>
+FitQuality measure_quality(const Model& model, const TexelObservations& obs) {
+  FitQuality q;
+  Vec3d sq = Vec3d::Zero(), pct = Vec3d::Zero();
+  Eigen::Vector3i pct_n = Eigen::Vector3i::Zero();
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const Vec3d pred = model.evaluate(obs.direction[i].cast<double>());
+    for (int c = 0; c < 3; ++c) {
+      const double o = obs.radiance[i][c];
+      const double r = pred[c] - o;
+      sq[c] += r * r;
+      if (o > 0) {
+        pct[c] += std::abs(r) / o * 100.0;
+        ++pct_n[c];
+      }
+    }
+  }
+  q.samples = static_cast<int>(obs.size());
+  for (int c = 0; c < 3; ++c) {
+    q.rms[c] = obs.size() ? std::sqrt(sq[c] / obs.size()) : 0.0;
+    q.mean_percent[c] = pct_n[c] ? pct[c] / pct_n[c] : 0.0;
+  }
+  return q;
+}
+
+}  // namespace vdrig::fitting

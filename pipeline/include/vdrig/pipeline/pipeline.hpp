@@ -1,0 +1,68 @@
+// The stages of vdrig chained on a session folder. Each stage reads what the previous one wrote, so each can be
+// run alone (vdrig hdr / obsmap / fit / render) or all at once (vdrig demo).
+//
+//   SESSION/hdr/view_VVVV.exr     merged bracket of each view (calib::HdrImage)
+//   SESSION/maps/<model>.exr      parameter maps (fitting::ParameterMap)
+//   SESSION/renders/              headless renders, photographs and difference images
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "vdrig/capture/session.hpp"
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/obsmap.hpp"
+#include "vdrig/rig/registry.hpp"
+
+namespace vdrig::pipeline {
+
+/// A registry with every backend of this build: the simulator and the hardware compiled in.
+rig::BackendRegistry full_registry();
+
+struct CaptureRequest {
+  std::filesystem::path out_dir;
+  nlohmann::json rig_config;         // e.g. sim::sim_rig_config({{"scene", "patchwork"}})
+  std::string scheme = "latlong:6";  // see capture/schemes.hpp
+  std::vector<double> exposures_s = {0.25};
+  std::function<void(int done, int total)> on_view;
+};
+
+/// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
+Result<capture::Session> capture_session(const CaptureRequest& request);
+
+/// Merges every view's bracket into SESSION/hdr/view_VVVV.exr with the session's response curve; views already
+/// merged are skipped (resumable). The response comes from the sim config (ground truth) until radiometric
+/// calibration writes SESSION/calib/response.json, which then takes precedence.
+Status merge_session_hdr(const capture::Session& session);
+
+/// Camera and per-view poses of a session: from SESSION/calib/ when calibrated, else the simulator's ground truth.
+struct SessionGeometry {
+  CameraModel camera;
+  std::vector<ViewPose> poses;  // per planned view
+  std::string source;           // "calibrated" or "simulator ground truth"
+};
+Result<SessionGeometry> session_geometry(const capture::Session& session);
+
+/// Builds the observation map of a session (views listed in `views`, or all when empty).
+Result<fitting::ObservationMap> build_session_obsmap(const capture::Session& session, int texels_s, int texels_t,
+                                                     const std::vector<int>& views = {});
+
+/// Renders the map from a session view's pose; writes render, photograph and |difference| PNGs to out_dir and
+/// returns the mean absolute difference in 8-bit code units over `region` (non-zero pixels), or all pixels.
+struct Comparison {
+  double mean_abs_error = 0;
+  std::filesystem::path render_png, photo_png, diff_png;
+};
+Result<Comparison> render_and_compare(const capture::Session& session, const fitting::ParameterMap& map, int view,
+                                      const std::filesystem::path& out_dir, const cv::Mat& region = {});
+
+}  // namespace vdrig::pipeline
+
+namespace vdrig::pipeline {
+
+/// Pixels (CV_8UC1, 255) whose ray meets the surface inside the rectangle [x0, x1] x [y0, y1] mm (surface frame).
+cv::Mat surface_region_mask(const CameraModel& camera, const ViewPose& pose, double x0_mm, double y0_mm, double x1_mm,
+                            double y1_mm);
+
+}  // namespace vdrig::pipeline

@@ -1,0 +1,253 @@
+#include "vdrig/pipeline/pipeline.hpp"
+
+#include <atomic>
+#include <fstream>
+#include <opencv2/imgproc.hpp>
+#include <thread>
+
+#include "vdrig/calib/hdr.hpp"
+#include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/schemes.hpp"
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/viewer/surface_renderer.hpp"
+
+namespace vdrig::pipeline {
+namespace fs = std::filesystem;
+
+rig::BackendRegistry full_registry() {
+  rig::BackendRegistry registry;
+  sim::register_backends(registry);
+  rig::register_hardware_backends(registry);
+  return registry;
+}
+
+Result<capture::Session> capture_session(const CaptureRequest& req) {
+  auto logger = log::get("capture");
+  auto rig = full_registry().make_rig(req.rig_config);
+  if (!rig) return rig.error();
+  auto samples = capture::generate(req.scheme);
+  if (!samples) return samples.error();
+  // The stage's geometry: the simulator knows it; a hardware rig config states it ("geometry": {"distance_mm"}).
+  rig::RigGeometry geometry;
+  if (req.rig_config.contains("sim")) {
+    auto sc = sim::SimConfig::from_json(req.rig_config["sim"]);
+    if (!sc) return sc.error();
+    geometry = sc->geometry;
+  }
+  const auto plan = capture::plan_targets(geometry, rig->stage->spec(), samples->directions);
+  for (const auto& u : plan.unreachable) {
+    const SphericalDir s = spherical_from_direction(u.direction);
+    logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits",
+                 u.index, rad_to_deg(s.azimuth_rad), rad_to_deg(s.zenith_rad));
+  }
+  capture::Manifest manifest;
+  manifest.rig_config = req.rig_config;
+  manifest.scheme = req.scheme;
+  std::string bracket = "fixed:";
+  for (size_t i = 0; i < req.exposures_s.size(); ++i) bracket += (i ? "," : "") + std::to_string(req.exposures_s[i]);
+  manifest.bracket = bracket;
+  manifest.exposures_s = req.exposures_s;
+  for (const auto& t : plan.reachable)
+    manifest.views.push_back({static_cast<int>(manifest.views.size()), t.direction, t.pan_tilt});
+  if (req.rig_config.contains("sim")) {
+    auto scene = sim::make_scene(req.rig_config["sim"].value("scene", "patchwork"));
+    if (!scene) return scene.error();
+    manifest.surface_width_mm = scene->width_mm;
+    manifest.surface_height_mm = scene->height_mm;
+  }
+  auto session = capture::Session::create(req.out_dir, manifest);
+  if (!session) return session.error();
+  VDRIG_TRY(rig->stage->home());
+  capture::CaptureOptions options;
+  options.exposures_s = req.exposures_s;
+  options.on_progress = [&](const capture::CaptureProgress& p) {
+    if (req.on_view) req.on_view(p.views_done, p.views_total);
+  };
+  VDRIG_TRY(capture::run_capture(rig.value(), session.value(), options));
+  return session;
+}
+
+namespace {
+
+Result<ResponseCurve> session_response(const capture::Session& session) {
+  const fs::path calibrated = session.dir() / "calib" / "response.json";
+  if (fs::exists(calibrated)) {
+    std::ifstream in(calibrated);
+    auto j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, calibrated.string() + ": not valid JSON");
+    return ResponseCurve::from_json(j);
+  }
+  const auto& rc = session.manifest().rig_config;
+  if (!rc.contains("sim"))
+    return make_error(ErrorCode::kNotFound, "no response curve: run radiometric calibration (calib/response.json)");
+  auto sc = sim::SimConfig::from_json(rc["sim"]);
+  if (!sc) return sc.error();
+  return sc->sensor.response;
+}
+
+fs::path hdr_path(const capture::Session& session, int view) {
+  char name[32];
+  std::snprintf(name, sizeof name, "view_%04d.exr", view);
+  return session.dir() / "hdr" / name;
+}
+
+}  // namespace
+
+Status merge_session_hdr(const capture::Session& session) {
+  auto response = session_response(session);
+  if (!response) return response.error();
+  std::error_code ec;
+  fs::create_directories(session.dir() / "hdr", ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create hdr/: " + ec.message());
+  const auto& views = session.manifest().views;
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  Status first_error;
+  auto worker = [&] {
+    for (size_t i = next++; i < views.size(); i = next++) {
+      const int v = views[i].index;
+      if (!session.view_complete(v) || fs::exists(hdr_path(session, v))) continue;
+      std::vector<Frame> frames;
+      Status status;
+      for (const auto& rec : session.frames_of_view(v)) {
+        auto img = session.load_image(rec);
+        if (!img) {
+          status = img.error();
+          break;
+        }
+        Frame f;
+        f.image = img.value();
+        f.exposure_s = rec.exposure_s;
+        f.gain = rec.gain;
+        f.bits = rec.bits;
+        frames.push_back(std::move(f));
+      }
+      // The merge wants a monotonic bracket: sort by effective exposure.
+      std::sort(frames.begin(), frames.end(),
+                [](const Frame& a, const Frame& b) { return a.exposure_s * a.gain < b.exposure_s * b.gain; });
+      if (status) {
+        auto hdr = calib::merge_hdr(frames, response.value());
+        status = hdr ? calib::write_hdr_exr(hdr_path(session, v), hdr.value(), ExrPixelType::kFloat) : hdr.status();
+      }
+      if (!status) {
+        std::lock_guard lock(error_mutex);
+        if (first_error) first_error = make_error(status.error().code, "view " + std::to_string(v) + ": " + status.error().message);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned k = 0; k < std::max(1u, std::thread::hardware_concurrency()); ++k) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  return first_error;
+}
+
+Result<SessionGeometry> session_geometry(const capture::Session& session) {
+  const auto& rc = session.manifest().rig_config;
+  if (!rc.contains("sim"))
+    return make_error(ErrorCode::kNotFound, "session has no calibrated geometry (calib/) and is not simulated");
+  auto sc = sim::SimConfig::from_json(rc["sim"]);
+  if (!sc) return sc.error();
+  SessionGeometry g;
+  g.camera = sc->camera;
+  g.source = "simulator ground truth";
+  for (const auto& view : session.manifest().views) {
+    const auto frames = session.frames_of_view(view.index);
+    const PanTilt measured = frames.empty() ? view.target : frames.front().measured;
+    g.poses.push_back(rig::surface_pose(sc->geometry, measured));
+  }
+  return g;
+}
+
+Result<fitting::ObservationMap> build_session_obsmap(const capture::Session& session, int S, int T,
+                                                     const std::vector<int>& views_in) {
+  auto geometry = session_geometry(session);
+  if (!geometry) return geometry.error();
+  std::vector<int> views = views_in;
+  if (views.empty())
+    for (const auto& v : session.manifest().views) views.push_back(v.index);
+  fitting::ObservationMapSpec spec{S, T, session.manifest().surface_width_mm, session.manifest().surface_height_mm};
+  std::string why;
+  if (!spec.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, why);
+  fitting::ObservationMap map(spec, static_cast<int>(views.size()));
+  for (size_t i = 0; i < views.size(); ++i) {
+    auto hdr = calib::read_hdr_exr(hdr_path(session, views[i]));
+    if (!hdr) return hdr.error();
+    fitting::ViewInput input;
+    input.radiance_bgr = hdr->radiance;
+    input.clip_mask = hdr->mask;
+    input.camera = geometry->camera;
+    input.pose = geometry->poses.at(views[i]);
+    fitting::add_view(map, static_cast<int>(i), input);
+  }
+  log::get("fitting")->info("observation map {}x{} from {} views ({})", S, T, views.size(), geometry->source);
+  return map;
+}
+
+Result<Comparison> render_and_compare(const capture::Session& session, const fitting::ParameterMap& map, int view,
+                                      const fs::path& out_dir, const cv::Mat& region) {
+  auto geometry = session_geometry(session);
+  if (!geometry) return geometry.error();
+  const auto frames = session.frames_of_view(view);
+  if (frames.empty()) return make_error(ErrorCode::kNotFound, "view " + std::to_string(view) + " has no frames");
+  auto response = session_response(session);
+  if (!response) return response.error();
+  // Compare in the camera's own units with the middle exposure of the bracket (well exposed on most of the surface).
+  const capture::FrameRecord& rec = frames[frames.size() / 2];
+  auto photo = session.load_image(rec);
+  if (!photo) return photo.error();
+
+  auto ctx = viewer::GlContext::create(geometry->camera.width, geometry->camera.height, false);
+  if (!ctx) return ctx.error();
+  auto renderer = viewer::SurfaceRenderer::create(map);
+  if (!renderer) return renderer.error();
+  auto radiance = renderer.value()->render_radiance(geometry->camera, geometry->poses.at(view), {});
+  if (!radiance) return radiance.error();
+  const cv::Mat render = viewer::to_camera_codes(radiance.value(), rec.exposure_s, rec.gain, response.value());
+
+  cv::Mat diff;
+  cv::absdiff(render, photo.value(), diff);
+  cv::Mat diff_f;
+  diff.convertTo(diff_f, CV_32F);
+  const cv::Mat mask = region.empty() ? cv::Mat(diff.size(), CV_8U, cv::Scalar(255)) : region;
+  const cv::Scalar mean = cv::mean(diff_f, mask);
+  Comparison c;
+  c.mean_abs_error = (mean[0] + mean[1] + mean[2]) / 3.0;
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  char stem[32];
+  std::snprintf(stem, sizeof stem, "view_%04d", view);
+  c.render_png = out_dir / (std::string(stem) + "_render.png");
+  c.photo_png = out_dir / (std::string(stem) + "_photo.png");
+  c.diff_png = out_dir / (std::string(stem) + "_diff_x8.png");
+  cv::Mat diff_vis;
+  diff.convertTo(diff_vis, CV_8U, 8.0);  // amplified 8x so small differences are visible
+  VDRIG_TRY(write_png(c.render_png, render));
+  VDRIG_TRY(write_png(c.photo_png, photo.value()));
+  VDRIG_TRY(write_png(c.diff_png, diff_vis));
+  return c;
+}
+
+}  // namespace vdrig::pipeline
+
+namespace vdrig::pipeline {
+
+cv::Mat surface_region_mask(const CameraModel& camera, const ViewPose& pose, double x0, double y0, double x1,
+                            double y1) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  const Mat3d Rt = pose.R.transpose();
+  const Vec3d c = pose.camera_centre();
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) {
+      const Vec3d ray = Rt * camera.pixel_ray({double(x), double(y)});
+      if (std::abs(ray.z()) < 1e-12) continue;
+      const double s = -c.z() / ray.z();
+      if (s <= 0) continue;
+      const Vec3d p = c + s * ray;
+      if (p.x() >= x0 && p.x() <= x1 && p.y() >= y0 && p.y() <= y1) mask.at<uint8_t>(y, x) = 255;
+    }
+  return mask;
+}
+
+}  // namespace vdrig::pipeline

@@ -1,0 +1,15 @@
+// Registration hooks of the hardware backends. Each is defined in its backend's source file, which is compiled only
+// when its library was found (VDRIG_HAVE_<LIB>, set by rig/CMakeLists.txt); hardware.cpp calls those built.
+#pragma once
+
+#include "vdrig/rig/registry.hpp"
+
+namespace vdrig::rig {
+
+void register_modbus_backends(BackendRegistry& registry);    // stage: modbus-tcp, modbus-rtu
+void register_gpiod_backends(BackendRegistry& registry);     // stage: gpio-stepdir; light: gpio
+void register_v4l2_backend(BackendRegistry& registry);       // camera: v4l2
+void register_libcamera_backend(BackendRegistry& registry);  // camera: libcamera
+void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (discovery only)
+
+}  // namespace vdrig::rig

@@ -1,0 +1,91 @@
+#include "gpiod_lines.hpp"
+
+#include <gpiod.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace vdrig::rig {
+
+Result<std::shared_ptr<GpioChip>> GpioChip::open(const std::string& name) {
+  gpiod_chip* chip = gpiod_chip_open_lookup(name.c_str());
+  if (!chip) {
+    const int err = errno;
+    return make_error(err == ENOENT || err == ENODEV ? ErrorCode::kNotFound : ErrorCode::kDevice,
+                      "gpio chip \"" + name + "\": " + std::strerror(err));
+  }
+  return std::shared_ptr<GpioChip>(new GpioChip(chip, name));
+}
+
+GpioChip::~GpioChip() { gpiod_chip_close(chip_); }
+
+int GpioChip::num_lines() const { return static_cast<int>(gpiod_chip_num_lines(chip_)); }
+
+namespace {
+
+Result<gpiod_line*> get_line(const GpioChip& chip, int offset) {
+  if (offset < 0 || offset >= chip.num_lines())
+    return make_error(ErrorCode::kInvalidArgument, "gpio chip \"" + chip.name() + "\" has no line " +
+                                                       std::to_string(offset) + " (it has " +
+                                                       std::to_string(chip.num_lines()) + ")");
+  gpiod_line* line = gpiod_chip_get_line(chip.raw(), static_cast<unsigned>(offset));
+  if (!line)
+    return make_error(ErrorCode::kDevice,
+                      "gpio chip \"" + chip.name() + "\" line " + std::to_string(offset) + ": " + std::strerror(errno));
+  return line;
+}
+
+}  // namespace
+
+Error GpioLine::failure(const char* what, int err) const {
+  // A USB GPIO expander that was unplugged answers ENODEV.
+  const ErrorCode code = err == ENODEV || err == ENXIO ? ErrorCode::kDisconnected : ErrorCode::kDevice;
+  return make_error(code, std::string(what) + " gpio " + chip_->name() + ":" + std::to_string(offset_) + ": " +
+                              std::strerror(err) + (err == EBUSY ? " (line held by another consumer)" : ""));
+}
+
+Result<std::unique_ptr<GpioLine>> GpioLine::output(std::shared_ptr<GpioChip> chip, int offset,
+                                                   const std::string& consumer, bool active_low, bool initial) {
+  auto line = get_line(*chip, offset);
+  if (!line) return line.error();
+  std::unique_ptr<GpioLine> l(new GpioLine(chip, *line, offset));
+  const int flags = active_low ? GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW : 0;
+  if (gpiod_line_request_output_flags(*line, consumer.c_str(), flags, initial ? 1 : 0) != 0) {
+    l->line_ = nullptr;  // not requested: nothing to release
+    return GpioLine(chip, nullptr, offset).failure("requesting output", errno);
+  }
+  return l;
+}
+
+Result<std::unique_ptr<GpioLine>> GpioLine::input(std::shared_ptr<GpioChip> chip, int offset,
+                                                  const std::string& consumer, bool active_low, bool pull_up) {
+  auto line = get_line(*chip, offset);
+  if (!line) return line.error();
+  std::unique_ptr<GpioLine> l(new GpioLine(chip, *line, offset));
+  // Limit switches are usually wired to ground with the SoC's pull-up; the bias flag needs kernel >= 5.5 and is
+  // ignored by chips without bias control, so an external pull-up still works.
+  const int flags =
+      (active_low ? GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW : 0) | (pull_up ? GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_UP : 0);
+  if (gpiod_line_request_input_flags(*line, consumer.c_str(), flags) != 0) {
+    l->line_ = nullptr;
+    return GpioLine(chip, nullptr, offset).failure("requesting input", errno);
+  }
+  return l;
+}
+
+GpioLine::~GpioLine() {
+  if (line_) gpiod_line_release(line_);
+}
+
+Status GpioLine::set(bool active) {
+  if (gpiod_line_set_value(line_, active ? 1 : 0) != 0) return failure("setting", errno);
+  return Status::ok();
+}
+
+Result<bool> GpioLine::get() {
+  const int v = gpiod_line_get_value(line_);
+  if (v < 0) return failure("reading", errno);
+  return v == 1;
+}
+
+}  // namespace vdrig::rig

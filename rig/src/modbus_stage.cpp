@@ -1,0 +1,370 @@
+#include "modbus_stage.hpp"
+
+#include <modbus/modbus.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "backends.hpp"
+#include "settings.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::rig {
+namespace mm = modbus_map;
+namespace {
+
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+
+std::string hex16(unsigned v) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "0x%04x", v & 0xffffu);
+  return buf;
+}
+
+ModbusAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, const std::string& where) {
+  Settings s(section, where);
+  ModbusAxisConfig a;
+  a.unit = static_cast<int>(s.required_integer("unit", 1, 247));  // 0 is broadcast, 248..255 reserved
+  a.counts_per_degree = s.required_number("counts_per_degree", -1e9, 1e9);
+  if (s.has("counts_per_degree") && std::abs(a.counts_per_degree) < 1e-9) s.fail("\"counts_per_degree\" must not be 0");
+  const double min_deg = s.number("min_deg", -180.0, -1e6, 1e6);
+  const double max_deg = s.number("max_deg", 180.0, -1e6, 1e6);
+  if (min_deg >= max_deg) s.fail("\"min_deg\" must be below \"max_deg\"");
+  a.axis.min_rad = min_deg / kDegPerRad;
+  a.axis.max_rad = max_deg / kDegPerRad;
+  a.axis.max_speed_rad_s = s.number("max_speed_deg_s", 30.0, 1e-6, 1e6) / kDegPerRad;
+  a.axis.accel_rad_s2 = s.number("accel_deg_s2", 60.0, 1e-6, 1e7) / kDegPerRad;
+  a.axis.continuous = s.boolean("continuous", false);
+  a.in_position_window_deg = s.number("in_position_window_deg", 0.05, 0.0, 10.0);
+  s.reject_unknown({"unit", "counts_per_degree", "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2", "continuous",
+                    "in_position_window_deg"});
+  // A 32-bit counter must hold the whole travel.
+  const double max_counts = std::max(std::abs(min_deg), std::abs(max_deg)) * std::abs(a.counts_per_degree);
+  if (!a.axis.continuous && max_counts > 2147483647.0) s.fail("travel exceeds the 32-bit encoder range");
+  parent.absorb(s);
+  return a;
+}
+
+bool is_link_error(int err) {
+  switch (err) {
+    case ECONNRESET:
+    case EPIPE:
+    case ECONNREFUSED:
+    case ENOTCONN:
+    case EBADF:
+    case ECONNABORTED:
+    case EHOSTUNREACH:
+    case ENETUNREACH:
+    case ENODEV:
+    case ENXIO:
+    case EIO:
+      return true;
+    default:
+      return false;
+  }
+}
+
+// Worth another attempt: a lost or garbled frame (noise on an RS-485 line, a late TCP answer that libmodbus
+// rejects by transaction id), or a drive that says it is busy.
+bool is_transient(int err) {
+  return err == ETIMEDOUT || err == EMBBADCRC || err == EMBBADDATA || err == EMBBADEXC || err == EMBMDATA ||
+         err == EMBBADSLAVE || err == EMBXSBUSY || err == EMBXGTAR || err == EINTR;
+}
+
+}  // namespace
+
+Result<ModbusStageConfig> ModbusStageConfig::parse(const nlohmann::json& settings, bool rtu) {
+  Settings s(settings, rtu ? "stage modbus-rtu" : "stage modbus-tcp");
+  ModbusStageConfig c;
+  c.rtu = rtu;
+  if (rtu) {
+    c.device = s.required_string("device");
+    c.baud = static_cast<int>(s.integer("baud", 115200, 300, 4000000));
+    c.parity = s.string("parity", "N", {"N", "E", "O"})[0];
+    c.data_bits = static_cast<int>(s.integer("data_bits", 8, 5, 8));
+    c.stop_bits = static_cast<int>(s.integer("stop_bits", 1, 1, 2));
+  } else {
+    c.host = s.required_string("host");
+    c.port = static_cast<int>(s.integer("port", 502, 1, 65535));
+  }
+  c.response_timeout_s = s.number("response_timeout_s", 0.2, 0.001, 60.0);
+  c.retries = static_cast<int>(s.integer("retries", 2, 0, 10));
+  c.poll_interval_s = s.number("poll_interval_s", 0.02, 0.0, 5.0);
+  c.move_timeout_s = s.number("move_timeout_s", 60.0, 0.01, 3600.0);
+  c.home_timeout_s = s.number("home_timeout_s", 120.0, 0.01, 3600.0);
+  c.word_order = s.string("word_order", "high-first", {"high-first", "low-first"}) == "low-first"
+                     ? mm::WordOrder::kLowFirst
+                     : mm::WordOrder::kHighFirst;
+  c.register_base = static_cast<int>(s.integer("register_base", 0, 0, 65535 - mm::kRegisterCount));
+  c.pan = parse_axis(s, s.object("pan", true), "pan");
+  c.tilt = parse_axis(s, s.object("tilt", true), "tilt");
+  if (s.has("pan") && s.has("tilt") && c.pan.unit == c.tilt.unit)
+    s.fail("pan and tilt must have different \"unit\" ids");
+  if (rtu)
+    s.reject_unknown({"device", "baud", "parity", "data_bits", "stop_bits", "response_timeout_s", "retries",
+                      "poll_interval_s", "move_timeout_s", "home_timeout_s", "word_order", "register_base", "pan",
+                      "tilt"});
+  else
+    s.reject_unknown({"host", "port", "response_timeout_s", "retries", "poll_interval_s", "move_timeout_s",
+                      "home_timeout_s", "word_order", "register_base", "pan", "tilt"});
+  if (!s.is_valid(nullptr)) return s.error();
+  return c;
+}
+
+ModbusStage::ModbusStage(ModbusStageConfig config) : config_(std::move(config)) {}
+
+ModbusStage::~ModbusStage() {
+  if (ctx_) {
+    if (connected_) modbus_close(ctx_);
+    modbus_free(ctx_);
+  }
+}
+
+Status ModbusStage::connect() {
+  std::lock_guard lock(mutex_);
+  return ensure_connected();
+}
+
+Status ModbusStage::ensure_connected() {
+  if (connected_) return Status::ok();
+  if (!ctx_) {
+    ctx_ = config_.rtu ? modbus_new_rtu(config_.device.c_str(), config_.baud, config_.parity, config_.data_bits,
+                                        config_.stop_bits)
+                       : modbus_new_tcp(config_.host.c_str(), config_.port);
+    if (!ctx_)
+      return make_error(ErrorCode::kInvalidArgument,
+                        backend() + ": cannot create the Modbus context: " + modbus_strerror(errno));
+    const double t = config_.response_timeout_s;
+    const auto sec = static_cast<uint32_t>(t);
+    modbus_set_response_timeout(ctx_, sec, static_cast<uint32_t>((t - sec) * 1e6));
+    // We do our own recovery (retries, reconnect on the next call) so the caller sees every failure as a Status;
+    // libmodbus' built-in recovery would hide a lost link inside a long blocking call.
+    modbus_set_error_recovery(ctx_, MODBUS_ERROR_RECOVERY_NONE);
+  }
+  const std::string where = config_.rtu ? config_.device : config_.host + ":" + std::to_string(config_.port);
+  if (modbus_connect(ctx_) == -1) {
+    const int err = errno;
+    if (err == ETIMEDOUT)
+      return make_error(ErrorCode::kTimeout, backend() + ": no answer from " + where + " while connecting");
+    return make_error(ErrorCode::kDisconnected,
+                      backend() + ": cannot connect to " + where + ": " + modbus_strerror(err));
+  }
+  connected_ = true;
+  log::get("rig")->info("{}: connected to {}", backend(), where);
+  return Status::ok();
+}
+
+void ModbusStage::drop_connection(const char* why) {
+  if (!connected_) return;
+  log::get("rig")->warn("{}: link lost ({}); will reconnect on the next call", backend(), why);
+  modbus_close(ctx_);
+  connected_ = false;
+}
+
+template <typename Op>
+Status ModbusStage::request(Axis a, const char* what, Op&& op) {
+  std::lock_guard lock(mutex_);
+  VDRIG_TRY(ensure_connected());
+  modbus_set_slave(ctx_, axis(a).unit);
+  int err = 0;
+  for (int attempt = 0; attempt <= config_.retries; ++attempt) {
+    errno = 0;
+    if (op(ctx_) != -1) return Status::ok();
+    err = errno;
+    const std::string ctx_msg = backend() + ": " + what + " on " + name(a) + " drive (unit " +
+                                std::to_string(axis(a).unit) + "): " + modbus_strerror(err);
+    if (is_link_error(err)) {
+      drop_connection(modbus_strerror(err));
+      return make_error(ErrorCode::kDisconnected, ctx_msg);
+    }
+    if (!is_transient(err)) return make_error(ErrorCode::kDevice, ctx_msg);
+    log::get("rig")->debug("{} (attempt {} of {})", ctx_msg, attempt + 1, config_.retries + 1);
+    // Discard whatever arrived late so the next answer is matched to the next request.
+    modbus_flush(ctx_);
+  }
+  const std::string msg = backend() + ": " + what + " on " + name(a) + " drive (unit " + std::to_string(axis(a).unit) +
+                          ") failed after " + std::to_string(config_.retries + 1) +
+                          " attempts: " + modbus_strerror(err);
+  if (err == ETIMEDOUT) {
+    // On TCP a drive that stopped answering may have left a half-read frame behind: start the next call on a
+    // fresh connection rather than resynchronising the stream.
+    if (!config_.rtu) drop_connection("no answer");
+    return make_error(ErrorCode::kTimeout, msg);
+  }
+  return make_error(ErrorCode::kDevice, msg);
+}
+
+Result<ModbusStage::Readback> ModbusStage::read_back(Axis a) {
+  uint16_t regs[mm::kReadbackCount] = {};
+  VDRIG_TRY(request(a, "reading status", [&](modbus_t* ctx) {
+    return modbus_read_registers(ctx, config_.register_base + mm::kStatus, mm::kReadbackCount, regs);
+  }));
+  Readback r;
+  r.status = regs[0];
+  r.actual_counts = mm::get_i32(&regs[mm::kActualPosition - mm::kStatus], config_.word_order);
+  r.fault_code = regs[mm::kFaultCode - mm::kStatus];
+  return r;
+}
+
+Status ModbusStage::write_command(Axis a, uint16_t command) {
+  return request(a, "writing command", [&](modbus_t* ctx) {
+    return modbus_write_register(ctx, config_.register_base + mm::kCommand, command);
+  });
+}
+
+Status ModbusStage::write_move(Axis a, int32_t target_counts) {
+  const ModbusAxisConfig& ax = axis(a);
+  const double cpr = std::abs(ax.counts_per_degree) * kDegPerRad;
+  uint16_t regs[mm::kWritableCount] = {};
+  mm::put_u32(&regs[mm::kProfileVelocity],
+              static_cast<uint32_t>(std::max(1.0, std::round(ax.axis.max_speed_rad_s * cpr))), config_.word_order);
+  mm::put_u32(&regs[mm::kProfileAccel], static_cast<uint32_t>(std::max(1.0, std::round(ax.axis.accel_rad_s2 * cpr))),
+              config_.word_order);
+  mm::put_i32(&regs[mm::kTargetPosition], target_counts, config_.word_order);
+  regs[mm::kCommand] = mm::kCmdMove;
+  return request(a, "writing move", [&](modbus_t* ctx) {
+    return modbus_write_registers(ctx, config_.register_base, mm::kWritableCount, regs);
+  });
+}
+
+Status ModbusStage::fault_error(Axis a, const Readback& r) const {
+  return make_error(ErrorCode::kDevice, backend() + ": " + name(a) + " drive (unit " + std::to_string(axis(a).unit) +
+                                            ") reports fault code " + hex16(r.fault_code));
+}
+
+Status ModbusStage::stop_locked() {
+  // Both drives get the stop even when the first write fails: a moving axis must not be left running.
+  Status pan = write_command(Axis::kPan, mm::kCmdStop);
+  Status tilt = write_command(Axis::kTilt, mm::kCmdStop);
+  return pan ? tilt : pan;
+}
+
+template <typename Done>
+Status ModbusStage::wait_both(const char* what, double timeout_s, Done&& done) {
+  using Clock = std::chrono::steady_clock;
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  for (;;) {
+    bool all_done = true;
+    for (Axis a : {Axis::kPan, Axis::kTilt}) {
+      auto r = read_back(a);
+      if (!r) return r.error();
+      if (r->status & mm::kStatusFault) {
+        const Status halt = stop_locked();  // the other axis would otherwise finish its move unattended
+        if (!halt) log::get("rig")->warn("{}: stopping after a fault failed: {}", backend(), halt.describe());
+        return fault_error(a, *r);
+      }
+      all_done = all_done && done(a, *r);
+    }
+    if (all_done) return Status::ok();
+    if (Clock::now() >= deadline) {
+      const Status halt = stop_locked();
+      if (!halt) log::get("rig")->warn("{}: stopping after a timeout failed: {}", backend(), halt.describe());
+      return make_error(ErrorCode::kTimeout,
+                        backend() + ": " + what + " not finished within " + std::to_string(timeout_s) + " s");
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(config_.poll_interval_s));
+  }
+}
+
+Status ModbusStage::home() {
+  for (Axis a : {Axis::kPan, Axis::kTilt}) {
+    auto r = read_back(a);
+    if (!r) return r.error();
+    if (r->status & mm::kStatusFault) {
+      // Homing is the documented recovery: the fault is cleared (and logged), the reference run re-establishes
+      // the position the fault may have lost.
+      log::get("rig")->warn("{}: clearing fault {} on {} drive before homing", backend(), hex16(r->fault_code),
+                            name(a));
+      VDRIG_TRY(write_command(a, mm::kCmdClearFault));
+    }
+  }
+  VDRIG_TRY(write_command(Axis::kPan, mm::kCmdHome));
+  VDRIG_TRY(write_command(Axis::kTilt, mm::kCmdHome));
+  // Done = referenced, standing still and at zero. Checking the position too guards against drives that keep the
+  // "homed" bit of a previous reference run for a cycle after the new command.
+  return wait_both("homing", config_.home_timeout_s, [&](Axis a, const Readback& r) {
+    const double window = std::max(1.0, axis(a).in_position_window_deg * std::abs(axis(a).counts_per_degree));
+    return (r.status & mm::kStatusHomed) && !(r.status & mm::kStatusMoving) && std::abs(r.actual_counts) <= window;
+  });
+}
+
+Status ModbusStage::move_to(const PanTilt& target) {
+  const double target_rad[2] = {target.pan_rad, target.tilt_rad};
+  int32_t target_counts[2] = {};
+  for (Axis a : {Axis::kPan, Axis::kTilt}) {
+    const int i = a == Axis::kPan ? 0 : 1;
+    const ModbusAxisConfig& ax = axis(a);
+    const double t = target_rad[i];
+    if (!std::isfinite(t)) return make_error(ErrorCode::kInvalidArgument, backend() + ": non-finite target");
+    auto r = read_back(a);
+    if (!r) return r.error();
+    if (r->status & mm::kStatusFault) return fault_error(a, *r);
+    if (!(r->status & mm::kStatusHomed))
+      return make_error(ErrorCode::kDevice, backend() + ": " + name(a) + " drive is not homed; call home() first");
+    const double cpr = ax.counts_per_degree * kDegPerRad;
+    double counts;
+    if (ax.axis.continuous) {
+      // Take the shorter way round from where the axis is; the counter keeps counting whole turns.
+      const double current = r->actual_counts / cpr;
+      counts = r->actual_counts + std::remainder(t - current, 2.0 * 3.14159265358979323846) * cpr;
+    } else {
+      if (t < ax.axis.min_rad - 1e-9 || t > ax.axis.max_rad + 1e-9)
+        return make_error(ErrorCode::kInvalidArgument, backend() + ": " + name(a) + " target " +
+                                                           std::to_string(t * kDegPerRad) + " deg outside [" +
+                                                           std::to_string(ax.axis.min_rad * kDegPerRad) + ", " +
+                                                           std::to_string(ax.axis.max_rad * kDegPerRad) + "] deg");
+      counts = t * cpr;
+    }
+    if (std::abs(counts) > 2147483647.0)
+      return make_error(ErrorCode::kInvalidArgument, backend() + ": target exceeds the 32-bit encoder range");
+    target_counts[i] = static_cast<int32_t>(std::lround(counts));
+  }
+  VDRIG_TRY(write_move(Axis::kPan, target_counts[0]));
+  if (Status s = write_move(Axis::kTilt, target_counts[1]); !s) {
+    const Status halt = write_command(Axis::kPan, mm::kCmdStop);
+    (void)halt;  // the tilt error is the one to report
+    return s;
+  }
+  // Done = in position, not moving and within the window of OUR target: some drives leave "in position" set from
+  // the previous move until their next control cycle, which alone would end the wait before the move started.
+  return wait_both("move", config_.move_timeout_s, [&](Axis a, const Readback& r) {
+    const int i = a == Axis::kPan ? 0 : 1;
+    const double window = std::max(1.0, axis(a).in_position_window_deg * std::abs(axis(a).counts_per_degree));
+    return (r.status & mm::kStatusInPosition) && !(r.status & mm::kStatusMoving) &&
+           std::abs(static_cast<double>(r.actual_counts) - target_counts[i]) <= window;
+  });
+}
+
+Result<PanTilt> ModbusStage::position() {
+  auto pan = read_back(Axis::kPan);
+  if (!pan) return pan.error();
+  auto tilt = read_back(Axis::kTilt);
+  if (!tilt) return tilt.error();
+  PanTilt p;
+  p.pan_rad = pan->actual_counts / (config_.pan.counts_per_degree * kDegPerRad);
+  p.tilt_rad = tilt->actual_counts / (config_.tilt.counts_per_degree * kDegPerRad);
+  return p;
+}
+
+Status ModbusStage::stop() { return stop_locked(); }
+
+}  // namespace vdrig::rig
+
+namespace vdrig::rig {
+
+void register_modbus_backends(BackendRegistry& registry) {
+  for (const bool rtu : {false, true}) {
+    registry.add_stage(rtu ? "modbus-rtu" : "modbus-tcp",
+                       [rtu](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
+                         auto config = ModbusStageConfig::parse(settings, rtu);
+                         if (!config) return config.error();
+                         auto stage = std::make_unique<ModbusStage>(std::move(config.value()));
+                         VDRIG_TRY(stage->connect());
+                         return std::unique_ptr<PanTiltStage>(std::move(stage));
+                       });
+  }
+}
+
+}  // namespace vdrig::rig

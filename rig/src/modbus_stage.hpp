@@ -1,0 +1,106 @@
+// modbus-tcp / modbus-rtu pan/tilt stage: two position drives (pan, tilt) on one Modbus link, addressed by their
+// unit (slave) id, with the register map of modbus_map.hpp / docs/rig-modbus.md.
+//
+// Settings (JSON "stage" section; degrees and seconds):
+//   modbus-tcp: "host" (required), "port" (502)
+//   modbus-rtu: "device" (required, e.g. /dev/ttyUSB0), "baud" (115200), "parity" ("N"|"E"|"O"), "data_bits" (8),
+//               "stop_bits" (1)
+//   both: "response_timeout_s" (0.2), "retries" (2, extra attempts on transient errors), "poll_interval_s" (0.02),
+//         "move_timeout_s" (60), "home_timeout_s" (120), "word_order" ("high-first"|"low-first"),
+//         "register_base" (0),
+//         "pan" / "tilt": { "unit" (1..247, required), "counts_per_degree" (required, != 0; negative flips the
+//                           direction), "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2",
+//                           "continuous" (false), "in_position_window_deg" (0.05) }
+// Errors: a drive fault is kDevice with its fault code; no answer within the timeout (after retries) is kTimeout; a
+// lost link is kDisconnected and the next call reconnects.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "modbus_map.hpp"
+#include "vdrig/rig/devices.hpp"
+
+typedef struct _modbus modbus_t;  // libmodbus stays private to the .cpp
+
+namespace vdrig::rig {
+
+struct ModbusAxisConfig {
+  int unit = 1;
+  double counts_per_degree = 0.0;
+  double in_position_window_deg = 0.05;
+  AxisSpec axis;  // radians
+};
+
+struct ModbusStageConfig {
+  bool rtu = false;
+  std::string host;  // TCP
+  int port = 502;
+  std::string device;  // RTU
+  int baud = 115200;
+  char parity = 'N';
+  int data_bits = 8;
+  int stop_bits = 1;
+  double response_timeout_s = 0.2;
+  int retries = 2;
+  double poll_interval_s = 0.02;
+  double move_timeout_s = 60.0;
+  double home_timeout_s = 120.0;
+  modbus_map::WordOrder word_order = modbus_map::WordOrder::kHighFirst;
+  int register_base = 0;
+  ModbusAxisConfig pan, tilt;
+
+  /// Parses and validates a "stage" section; kInvalidArgument listing every problem.
+  static Result<ModbusStageConfig> parse(const nlohmann::json& settings, bool rtu);
+};
+
+class ModbusStage final : public PanTiltStage {
+ public:
+  explicit ModbusStage(ModbusStageConfig config);
+  ~ModbusStage() override;
+  ModbusStage(const ModbusStage&) = delete;
+  ModbusStage& operator=(const ModbusStage&) = delete;
+
+  std::string backend() const override { return config_.rtu ? "modbus-rtu" : "modbus-tcp"; }
+  StageSpec spec() const override { return {config_.pan.axis, config_.tilt.axis}; }
+  Status home() override;
+  Status move_to(const PanTilt& target) override;
+  Result<PanTilt> position() override;
+  Status stop() override;
+
+  /// Opens the link now (the factory calls it so a wrong address fails early); later calls reconnect on demand.
+  Status connect();
+
+ private:
+  struct Readback {
+    uint16_t status = 0;
+    int32_t actual_counts = 0;
+    uint16_t fault_code = 0;
+  };
+  enum class Axis { kPan, kTilt };
+
+  const ModbusAxisConfig& axis(Axis a) const { return a == Axis::kPan ? config_.pan : config_.tilt; }
+  const char* name(Axis a) const { return a == Axis::kPan ? "pan" : "tilt"; }
+  Status ensure_connected();
+  void drop_connection(const char* why);
+  /// Runs one Modbus request on `a`'s drive with retries; maps the outcome to a Status.
+  template <typename Op>
+  Status request(Axis a, const char* what, Op&& op);
+  Result<Readback> read_back(Axis a);
+  Status write_command(Axis a, uint16_t command);
+  Status write_move(Axis a, int32_t target_counts);
+  Status stop_locked();
+  Status fault_error(Axis a, const Readback& r) const;
+  /// Polls both drives until `done` holds for both, a fault, or the deadline.
+  template <typename Done>
+  Status wait_both(const char* what, double timeout_s, Done&& done);
+
+  ModbusStageConfig config_;
+  std::mutex mutex_;  // one request at a time on the link; stop() may come from another thread
+  modbus_t* ctx_ = nullptr;
+  bool connected_ = false;
+};
+
+}  // namespace vdrig::rig

@@ -1,0 +1,1 @@
+set(fitting_test_deps vdrig::sim vdrig::rig)

@@ -1,0 +1,346 @@
+#include "vdrig/viewer/surface_renderer.hpp"
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/gl.h>
+#include <GL/glext.h>
+#include <GLFW/glfw3.h>
+
+#include <cmath>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::viewer {
+namespace {
+
+// Full-screen triangle; the fragment shader does all the work.
+const char* kVertexShader = R"(#version 330 core
+void main() {
+  vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
+  gl_Position = vec4(p, 0.0, 1.0);
+}
+)";
+
+// Model evaluation is generated per model kind (see model_glsl()).
+const char* kFragmentHead = R"(#version 330 core
+out vec4 out_colour;
+uniform sampler2DArray u_params;   // parameter map channels, 4 per layer
+uniform ivec2 u_texels;            // S, T
+uniform vec2 u_size_mm;            // W, H
+uniform vec4 u_intrinsics;         // fx, fy, cx, cy
+uniform float u_dist[5];           // k1, k2, p1, p2, k3
+uniform mat3 u_cam_to_surface;     // R^T
+uniform vec3 u_centre;             // camera centre, surface frame (mm)
+uniform int u_samples;             // sub-samples per axis
+uniform int u_height;              // framebuffer height (OpenCV y = row from the top)
+uniform int u_mode;                // 0 = linear radiance, 1 = tone mapped sRGB
+uniform float u_gamma;
+uniform bool u_flip_y;             // default framebuffer: row 0 at the bottom
+
+float channel(int c, ivec2 t) { return texelFetch(u_params, ivec3(t, c / 4), 0)[c % 4]; }
+
+vec2 distort(vec2 u) {
+  float r2 = dot(u, u);
+  float radial = 1.0 + r2 * (u_dist[0] + r2 * (u_dist[1] + r2 * u_dist[4]));
+  return vec2(u.x * radial + 2.0 * u_dist[2] * u.x * u.y + u_dist[3] * (r2 + 2.0 * u.x * u.x),
+              u.y * radial + u_dist[2] * (r2 + 2.0 * u.y * u.y) + 2.0 * u_dist[3] * u.x * u.y);
+}
+vec2 undistort(vec2 d) {
+  vec2 u = d;
+  for (int i = 0; i < 40; ++i) u -= distort(u) - d;
+  return u;
+}
+)";
+
+const char* kFragmentTail = R"(
+vec3 shade_point(vec3 p) {
+  // Bilinear blend of the model evaluated at the four nearest texel centres.
+  vec2 st = vec2((p.x + 0.5 * u_size_mm.x) / u_size_mm.x * float(u_texels.x) - 0.5,
+                 (p.y + 0.5 * u_size_mm.y) / u_size_mm.y * float(u_texels.y) - 0.5);
+  ivec2 t0 = ivec2(floor(st));
+  vec2 f = st - vec2(t0);
+  vec3 sum = vec3(0.0);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      ivec2 t = clamp(t0 + ivec2(i, j), ivec2(0), u_texels - 1);
+      vec2 c = vec2((float(t.x) + 0.5) / float(u_texels.x) * u_size_mm.x - 0.5 * u_size_mm.x,
+                    (float(t.y) + 0.5) / float(u_texels.y) * u_size_mm.y - 0.5 * u_size_mm.y);
+      vec3 v = normalize(u_centre - vec3(c, 0.0));
+      float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+      sum += w * model(t, v);
+    }
+  return sum;
+}
+
+void main() {
+  float px = gl_FragCoord.x - 0.5;
+  float py = u_flip_y ? float(u_height) - gl_FragCoord.y - 0.5 : gl_FragCoord.y - 0.5;
+  vec3 sum = vec3(0.0);
+  float n = float(u_samples);
+  for (int sy = 0; sy < u_samples; ++sy)
+    for (int sx = 0; sx < u_samples; ++sx) {
+      vec2 pix = vec2(px - 0.5 + (float(sx) + 0.5) / n, py - 0.5 + (float(sy) + 0.5) / n);
+      vec2 u = undistort(vec2((pix.x - u_intrinsics.z) / u_intrinsics.x, (pix.y - u_intrinsics.w) / u_intrinsics.y));
+      vec3 ray = u_cam_to_surface * normalize(vec3(u, 1.0));
+      if (abs(ray.z) < 1e-9) continue;
+      float s = -u_centre.z / ray.z;
+      if (s <= 0.0) continue;
+      vec3 p = u_centre + s * ray;
+      if (abs(p.x) > 0.5 * u_size_mm.x || abs(p.y) > 0.5 * u_size_mm.y) continue;
+      sum += shade_point(vec3(p.xy, 0.0));
+    }
+  vec3 radiance = sum / (n * n);
+  if (u_mode == 0) {
+    out_colour = vec4(radiance, 1.0);
+  } else {
+    vec3 y = 1.0 - exp(-u_gamma * max(radiance, vec3(0.0)));
+    vec3 srgb = mix(12.92 * y, 1.055 * pow(y, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), y));
+    out_colour = vec4(srgb, 1.0);
+  }
+}
+)";
+
+/// GLSL of `vec3 model(ivec2 texel, vec3 v)` for the map's model, with channel indices baked in.
+Result<std::string> model_glsl(const fitting::ParameterMap& map) {
+  const auto& m = map.model();
+  const auto& img = map.image();
+  auto ch = [&](const std::string& name) { return std::to_string(img.find(name)); };
+  if (m.kind == "phong") {
+    std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
+    s += "  vec3 I = vec3(channel(" + ch("kd.R") + ", t), channel(" + ch("kd.G") + ", t), channel(" + ch("kd.B") + ", t));\n";
+    for (int k = 0; k < m.lobes; ++k) {
+      const std::string K = std::to_string(k);
+      const std::string mname = m.shared_shininess ? "m" : "m" + K;
+      s += "  {\n    vec3 r = vec3(channel(" + ch("r" + K + ".x") + ", t), channel(" + ch("r" + K + ".y") +
+           ", t), channel(" + ch("r" + K + ".z") + ", t));\n";
+      s += "    vec3 ks = vec3(channel(" + ch("ks" + K + ".R") + ", t), channel(" + ch("ks" + K + ".G") +
+           ", t), channel(" + ch("ks" + K + ".B") + ", t));\n";
+      s += "    float c = dot(v, r);\n    if (c > 0.0) I += ks * exp(channel(" + ch(mname) + ", t) * log(c));\n  }\n";
+    }
+    s += "  return I;\n}\n";
+    return s;
+  }
+  return make_error(ErrorCode::kUnsupported, "the viewer cannot shade model " + m.kind + " yet");
+}
+
+GLuint compile(GLenum type, const std::string& src, std::string* log) {
+  GLuint sh = glCreateShader(type);
+  const char* p = src.c_str();
+  glShaderSource(sh, 1, &p, nullptr);
+  glCompileShader(sh);
+  GLint ok = 0;
+  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char buf[4096];
+    glGetShaderInfoLog(sh, sizeof buf, nullptr, buf);
+    *log = buf;
+    glDeleteShader(sh);
+    return 0;
+  }
+  return sh;
+}
+
+std::once_flag g_glfw_once;
+bool g_glfw_ok = false;
+
+}  // namespace
+
+Result<std::unique_ptr<GlContext>> GlContext::create(int width, int height, bool visible, const std::string& title) {
+  std::call_once(g_glfw_once, [] {
+    glfwSetErrorCallback([](int code, const char* msg) { log::get("viewer")->warn("GLFW error {}: {}", code, msg); });
+    g_glfw_ok = glfwInit() == GLFW_TRUE;
+  });
+  if (!g_glfw_ok)
+    return make_error(ErrorCode::kUnsupported,
+                      "cannot initialise GLFW (no display? run under xvfb-run, or set DISPLAY)");
+  glfwWindowHint(GLFW_VISIBLE, visible ? GLFW_TRUE : GLFW_FALSE);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  GLFWwindow* w = glfwCreateWindow(std::max(1, width), std::max(1, height), title.c_str(), nullptr, nullptr);
+  if (!w) return make_error(ErrorCode::kUnsupported, "cannot create an OpenGL 3.3 core context");
+  auto ctx = std::unique_ptr<GlContext>(new GlContext());
+  ctx->window_ = w;
+  ctx->make_current();
+  return ctx;
+}
+
+GlContext::~GlContext() {
+  if (window_) glfwDestroyWindow(window_);
+}
+
+void GlContext::make_current() { glfwMakeContextCurrent(window_); }
+
+std::string GlContext::renderer() const {
+  const auto* s = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  return s ? s : "unknown";
+}
+
+Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
+  auto model = model_glsl(map);
+  if (!model) return model.error();
+  std::string log;
+  const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, &log);
+  const GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model.value() + kFragmentTail, &log) : 0;
+  if (!vs || !fs) return make_error(ErrorCode::kInternal, "shader compilation failed: " + log);
+  auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
+  r->program_ = glCreateProgram();
+  glAttachShader(r->program_, vs);
+  glAttachShader(r->program_, fs);
+  glLinkProgram(r->program_);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(r->program_, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char buf[4096];
+    glGetProgramInfoLog(r->program_, sizeof buf, nullptr, buf);
+    return make_error(ErrorCode::kInternal, std::string("shader link failed: ") + buf);
+  }
+  glGenVertexArrays(1, &r->vao_);
+  r->model_ = map.model();
+  r->texels_s_ = map.texels_s();
+  r->texels_t_ = map.texels_t();
+  r->width_mm_ = map.width_mm();
+  r->height_mm_ = map.height_mm();
+
+  // Upload every channel: layer l holds channels 4l..4l+3 as RGBA32F.
+  const auto& img = map.image();
+  const int C = static_cast<int>(img.channels.size());
+  r->layers_ = (C + 3) / 4;
+  std::vector<float> data(static_cast<size_t>(r->layers_) * img.width * img.height * 4, 0.0f);
+  for (int c = 0; c < C; ++c) {
+    const int layer = c / 4, comp = c % 4;
+    for (int y = 0; y < img.height; ++y) {
+      const float* row = img.channels[c].ptr<float>(y);
+      for (int x = 0; x < img.width; ++x)
+        data[((static_cast<size_t>(layer) * img.height + y) * img.width + x) * 4 + comp] = row[x];
+    }
+  }
+  glGenTextures(1, &r->params_tex_);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, r->params_tex_);
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA32F, img.width, img.height, r->layers_, 0, GL_RGBA, GL_FLOAT, data.data());
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  if (glGetError() != GL_NO_ERROR) return make_error(ErrorCode::kInternal, "uploading the parameter map failed");
+  return r;
+}
+
+SurfaceRenderer::~SurfaceRenderer() {
+  if (fbo_) glDeleteFramebuffers(1, &fbo_);
+  if (colour_tex_) glDeleteTextures(1, &colour_tex_);
+  if (params_tex_) glDeleteTextures(1, &params_tex_);
+  if (vao_) glDeleteVertexArrays(1, &vao_);
+  if (program_) glDeleteProgram(program_);
+}
+
+void SurfaceRenderer::draw(const CameraModel& cam, const ViewPose& pose, const RenderSettings& settings, int mode,
+                           double gamma) {
+  glUseProgram(program_);
+  auto loc = [&](const char* n) { return glGetUniformLocation(program_, n); };
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, params_tex_);
+  glUniform1i(loc("u_params"), 0);
+  glUniform2i(loc("u_texels"), texels_s_, texels_t_);
+  glUniform2f(loc("u_size_mm"), static_cast<float>(width_mm_), static_cast<float>(height_mm_));
+  glUniform4f(loc("u_intrinsics"), static_cast<float>(cam.fx), static_cast<float>(cam.fy), static_cast<float>(cam.cx),
+              static_cast<float>(cam.cy));
+  const float dist[5] = {static_cast<float>(cam.k1), static_cast<float>(cam.k2), static_cast<float>(cam.p1),
+                         static_cast<float>(cam.p2), static_cast<float>(cam.k3)};
+  glUniform1fv(loc("u_dist"), 5, dist);
+  // GLSL mat3 is column-major: column j holds (R^T)(:, j) = R(j, :).
+  float m[9];
+  const Mat3d Rt = pose.R.transpose();
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) m[j * 3 + i] = static_cast<float>(Rt(i, j));
+  glUniformMatrix3fv(loc("u_cam_to_surface"), 1, GL_FALSE, m);
+  const Vec3d c = pose.camera_centre();
+  glUniform3f(loc("u_centre"), static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
+  glUniform1i(loc("u_samples"), settings.samples_per_axis);
+  glUniform1i(loc("u_height"), cam.height);
+  glUniform1i(loc("u_mode"), mode);
+  glUniform1f(loc("u_gamma"), static_cast<float>(gamma));
+  glUniform1i(loc("u_flip_y"), mode == 1 ? 1 : 0);
+  glBindVertexArray(vao_);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+Result<cv::Mat> SurfaceRenderer::render_radiance(const CameraModel& cam, const ViewPose& pose,
+                                                 const RenderSettings& settings) {
+  if (fbo_w_ != cam.width || fbo_h_ != cam.height) {
+    if (fbo_) glDeleteFramebuffers(1, &fbo_);
+    if (colour_tex_) glDeleteTextures(1, &colour_tex_);
+    glGenTextures(1, &colour_tex_);
+    glBindTexture(GL_TEXTURE_2D, colour_tex_);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, cam.width, cam.height, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glGenFramebuffers(1, &fbo_);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, colour_tex_, 0);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      return make_error(ErrorCode::kUnsupported, "float framebuffer not supported by this OpenGL driver");
+    fbo_w_ = cam.width;
+    fbo_h_ = cam.height;
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+  glViewport(0, 0, cam.width, cam.height);
+  glClearColor(0, 0, 0, 1);
+  glClear(GL_COLOR_BUFFER_BIT);
+  draw(cam, pose, settings, 0, 1.0);
+  cv::Mat rgba(cam.height, cam.width, CV_32FC4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  // Framebuffer row r holds OpenCV row r (the shader maps gl_FragCoord.y straight to the pixel row).
+  glReadPixels(0, 0, cam.width, cam.height, GL_RGBA, GL_FLOAT, rgba.data);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (const GLenum e = glGetError(); e != GL_NO_ERROR)
+    return make_error(ErrorCode::kInternal, "OpenGL error " + std::to_string(e) + " while rendering");
+  cv::Mat bgr;
+  cv::cvtColor(rgba, bgr, cv::COLOR_RGBA2BGR);
+  return bgr;
+}
+
+void SurfaceRenderer::draw_tone_mapped(const CameraModel& cam, const ViewPose& pose, const RenderSettings& settings,
+                                       double gamma) {
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glClearColor(0.05f, 0.05f, 0.06f, 1);
+  glClear(GL_COLOR_BUFFER_BIT);
+  draw(cam, pose, settings, 1, gamma);
+}
+
+cv::Mat tone_map(const cv::Mat& radiance, double gamma) {
+  VDRIG_CHECK(radiance.type() == CV_32FC3, "tone_map needs CV_32FC3");
+  cv::Mat out(radiance.size(), CV_8UC3);
+  for (int y = 0; y < radiance.rows; ++y)
+    for (int x = 0; x < radiance.cols; ++x) {
+      const cv::Vec3f v = radiance.at<cv::Vec3f>(y, x);
+      cv::Vec3b o;
+      for (int c = 0; c < 3; ++c) {
+        const double t = 1.0 - std::exp(-gamma * std::max(0.0f, v[c]));
+        const double s = t <= 0.0031308 ? 12.92 * t : 1.055 * std::pow(t, 1.0 / 2.4) - 0.055;
+        o[c] = cv::saturate_cast<uchar>(std::round(s * 255.0));
+      }
+      out.at<cv::Vec3b>(y, x) = o;
+    }
+  return out;
+}
+
+cv::Mat to_camera_codes(const cv::Mat& radiance, double exposure_s, double gain, const ResponseCurve& response) {
+  VDRIG_CHECK(radiance.type() == CV_32FC3, "to_camera_codes needs CV_32FC3");
+  const int depth = response.bits() <= 8 ? CV_8U : CV_16U;
+  cv::Mat out(radiance.size(), CV_MAKETYPE(depth, 3));
+  for (int y = 0; y < radiance.rows; ++y)
+    for (int x = 0; x < radiance.cols; ++x) {
+      const cv::Vec3f v = radiance.at<cv::Vec3f>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        const double code = std::round(response.forward(2 - c, v[c] * exposure_s * gain));
+        if (depth == CV_8U)
+          out.at<cv::Vec3b>(y, x)[c] = static_cast<uchar>(code);
+        else
+          out.at<cv::Vec3w>(y, x)[c] = static_cast<uint16_t>(code);
+      }
+    }
+  return out;
+}
+
+}  // namespace vdrig::viewer
