@@ -74,7 +74,8 @@ int main() {
   cv::Mat crf(256, 1, CV_32FC3);
   for (int z = 0; z < 256; ++z)
     for (int c = 0; c < 3; ++c)
-      crf.at<cv::Vec3f>(z)[c] = static_cast<float>(z == 0 ? response.inverse(c, 0.5) : response.inverse(c, z));
+      crf.at<cv::Vec3f>(z)[c] =  // OpenCV's CRF follows the image's B, G, R; ResponseCurve is R, G, B
+          static_cast<float>(z == 0 ? response.inverse(2 - c, 0.5) : response.inverse(2 - c, z));
   auto merge_debevec = cv::createMergeDebevec();
 
   const int threads = cv::getNumThreads();

@@ -106,9 +106,12 @@ Status run_response(const std::vector<std::string>& items, const std::string& ou
   if (!frames) return frames.error();
   auto rec = calib::recover_response(*frames, opt);
   if (!rec) return rec.error();
-  for (int c = 0; c < 3; ++c)
-    std::printf("channel %c: %d samples, rms log residual %.4f, inverse(mid) %.4f\n", "BGR"[c], rec -> samples[c],
-                rec -> rms_residual_log[c], rec -> curve.inverse(c, rec->curve.max_code() / 2.0));
+  for (int c = 0; c < 3; ++c) {
+    const auto& r = *rec;
+    const char* names = "RGB";
+    std::printf("channel %c: %d samples, rms log residual %.4f, inverse(mid) %.4f\n", names[c], r.samples[c],
+                r.rms_residual_log[c], r.curve.inverse(c, r.curve.max_code() / 2.0));
+  }
   VDRIG_TRY(write_file_atomic(out, rec->curve.to_json().dump(1)));
   std::printf("wrote %s\n", out.c_str());
   return Status::ok();

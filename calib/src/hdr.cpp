@@ -45,8 +45,8 @@ struct MergeTables {
   int table_size = 0;
   std::vector<float> num;                 // [frame][channel][code]
   std::vector<float> den;                 // [channel][code]
-  std::vector<float> fallback_saturated;  // [channel]: inverse(max) / t_shortest
-  std::vector<float> fallback_black;      // [channel]: inverse(0) / t_longest
+  std::vector<float> fallback_saturated;  // [image channel]: inverse(max) / t_shortest
+  std::vector<float> fallback_black;      // [image channel]: inverse(0) / t_longest
   const float* num_of(size_t frame, int c) const {
     return num.data() + (frame * 3 + static_cast<size_t>(c)) * static_cast<size_t>(table_size);
   }
@@ -182,7 +182,7 @@ Result<HdrImage> merge_hdr(std::span<const Frame> frames, const ResponseCurve& r
     if (t[j] > t[longest]) longest = j;
   }
   for (int c = 0; c < 3; ++c) {
-    const auto& inv = response.inverse_table(c);
+    const auto& inv = response.inverse_table(2 - c);  // images are B, G, R; the response is indexed R, G, B
     for (size_t z = 0; z < ts; ++z) {
       const int code = static_cast<int>(z);
       const float w = hdr_hat_weight(code, max_code);

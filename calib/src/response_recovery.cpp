@@ -59,7 +59,8 @@ Result<RecoveredResponse> recover_response(std::span<const Frame> frames, const 
 
   RecoveredResponse out;
   std::array<std::vector<double>, 3> inverse, logs;
-  for (int c = 0; c < 3; ++c) {
+  for (int c = 0; c < 3; ++c) {  // image channel c (B, G, R) -> response channel rc (R, G, B)
+    const size_t rc = static_cast<size_t>(2 - c);
     // Codes of each usable candidate, in exposure order.
     std::vector<std::vector<int>> codes;
     codes.reserve(candidates.size());
@@ -76,7 +77,7 @@ Result<RecoveredResponse> recover_response(std::span<const Frame> frames, const 
     }
     if (codes.empty())
       return make_error(ErrorCode::kInvalidArgument,
-                        "channel " + std::to_string(c) +
+                        std::string("channel ") + "RGB"[rc] +
                             ": no pixel is seen unclipped in two exposures (bracket too wide, or scene too flat)");
 
     // Buckets per (frame, code bin); pick round-robin over bins and frames until enough samples are taken.
@@ -143,30 +144,37 @@ Result<RecoveredResponse> recover_response(std::span<const Frame> frames, const 
     const Eigen::VectorXd Atb = A.transpose() * b;
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(AtA);
     if (solver.info() != Eigen::Success)
-      return make_error(ErrorCode::kInternal, "response solve failed to factorise (channel " + std::to_string(c) + ")");
+      return make_error(ErrorCode::kInternal,
+                        std::string("response solve failed to factorise (channel ") + "RGB"[rc] + ")");
     const Eigen::VectorXd x = solver.solve(Atb);
     if (solver.info() != Eigen::Success || !x.allFinite())
-      return make_error(ErrorCode::kInternal, "response solve failed (channel " + std::to_string(c) + ")");
+      return make_error(ErrorCode::kInternal, std::string("response solve failed (channel ") + "RGB"[rc] + ")");
     const Eigen::VectorXd r = (A * x - b).head(data_rows);
-    out.rms_residual_log[static_cast<size_t>(c)] = data_rows ? std::sqrt(r.squaredNorm() / data_rows) : 0.0;
-    out.samples[static_cast<size_t>(c)] = static_cast<int>(N);
+    out.rms_residual_log[rc] = data_rows ? std::sqrt(r.squaredNorm() / data_rows) : 0.0;
+    out.samples[rc] = static_cast<int>(N);
 
     // Monotonic outward from the well-determined middle (g(mid) = 0 from the gauge row).
-    auto& g = logs[static_cast<size_t>(c)];
+    auto& g = logs[rc];
     g.assign(x.data(), x.data() + n);
     for (size_t zz = static_cast<size_t>(n / 2 + 1); zz < static_cast<size_t>(n); ++zz)
       g[zz] = std::max(g[zz], g[zz - 1]);
     for (int zz = n / 2 - 1; zz >= 0; --zz)
       g[static_cast<size_t>(zz)] = std::min(g[static_cast<size_t>(zz)], g[static_cast<size_t>(zz) + 1]);
-    log->debug("response channel {}: {} samples, {} data rows, rms log residual {:.4f}", c, N, data_rows,
-               out.rms_residual_log[static_cast<size_t>(c)]);
+    log->debug("response channel {}: {} samples, {} data rows, rms log residual {:.4f}", "RGB"[rc], N, data_rows,
+               out.rms_residual_log[rc]);
   }
   // Scale. A bracket fixes each channel's curve only up to its own factor (channel gains are invisible to it), so
   // the channels are tied at the best-determined code, mid (a pixel at mid code in every channel stays neutral),
-  // and one common factor puts the mean of inverse(max_code) over the channels at 1 ("X = 1 saturates").
-  // Tying at the extrapolated top code instead would tint the result by its noise.
+  // and one common factor puts saturation at X = 1 (core's convention) on average over the channels.
+  // Tying the channels at the extrapolated top code instead would tint the result by its noise.
+  // g at the top codes themselves rests on few, clip-biased observations (a noisy code near max is as likely to be
+  // clipped away as kept), so the top is a straight-line extrapolation of g over codes 70..90 % of the range.
   double top = 0;
-  for (const auto& g : logs) top += g[static_cast<size_t>(max_code)] / 3.0;
+  const int z0 = static_cast<int>(0.7 * max_code), z1 = static_cast<int>(0.9 * max_code);
+  for (const auto& g : logs) {
+    const double slope = (g[static_cast<size_t>(z1)] - g[static_cast<size_t>(z0)]) / (z1 - z0);
+    top += (g[static_cast<size_t>(z1)] + slope * (max_code - z1)) / 3.0;
+  }
   for (size_t c = 0; c < 3; ++c) {
     inverse[c].resize(static_cast<size_t>(n));
     for (size_t zz = 0; zz < static_cast<size_t>(n); ++zz) inverse[c][zz] = std::exp(logs[c][zz] - top);

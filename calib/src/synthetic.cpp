@@ -42,7 +42,7 @@ SyntheticBracket make_synthetic_bracket(const ResponseCurve& response, const Syn
         const float* e = out.radiance.ptr<float>(y);
         for (int x = 0; x < W; ++x)
           for (int c = 0; c < 3; ++c) {
-            double code = response.forward(c, e[3 * x + c] * t);
+            double code = response.forward(2 - c, e[3 * x + c] * t);  // BGR image, response indexed R, G, B
             if (o.noise_codes > 0) code += noise(rng);
             const int q = static_cast<int>(std::lround(std::clamp(code, 0.0, double(max_code))));
             if (type == CV_8UC3)

@@ -1,77 +1,173 @@
 #include "vdrig/capture/capture.hpp"
 
+#include <sys/statvfs.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
-#include <set>
+#include <cstring>
+#include <thread>
 
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::capture {
 
 bool CaptureOptions::is_valid(std::string* why) const {
-  if (exposures_s.empty()) {
-    if (why) *why = "a bracket needs at least one exposure";
-    return false;
-  }
-  std::set<double> seen;
-  for (double e : exposures_s) {
-    if (!(e > 0)) {
-      if (why) *why = "exposures must be positive";
-      return false;
-    }
-    if (!seen.insert(e).second) {
-      if (why) *why = "duplicate exposure " + std::to_string(e) + " s in the bracket";
-      return false;
-    }
-  }
   if (!(gain > 0)) {
     if (why) *why = "gain must be positive";
     return false;
   }
-  return true;
+  if (retry.max_attempts < 1 || !(retry.initial_backoff_s >= 0) || !(retry.max_backoff_s >= 0)) {
+    if (why) *why = "retry needs max_attempts >= 1 and non-negative backoffs";
+    return false;
+  }
+  return effective_bracket().is_valid(why);
 }
 
-bool frame_saturated(const Frame& frame) {
-  double max_value = 0;
-  cv::minMaxLoc(frame.image.reshape(1), nullptr, &max_value);
-  return max_value >= (1 << frame.bits) - 1;
+BracketSpec CaptureOptions::effective_bracket() const {
+  if (bracket) return *bracket;
+  BracketSpec b;
+  b.kind = BracketSpec::Kind::kFixed;
+  b.exposures_s = exposures_s;
+  return b;
 }
+
+bool frame_saturated(const Frame& frame) { return frame_saturated(frame, std::nullopt); }
+
+Result<uint64_t> free_disk_bytes(const std::filesystem::path& path) {
+  struct statvfs st {};
+  if (::statvfs(path.c_str(), &st) != 0)
+    return make_error(ErrorCode::kIo, "statvfs " + path.string() + ": " + std::strerror(errno));
+  return static_cast<uint64_t>(st.f_bavail) * static_cast<uint64_t>(st.f_frsize);
+}
+
+namespace {
+
+bool retryable(ErrorCode c) { return c == ErrorCode::kDevice || c == ErrorCode::kTimeout || c == ErrorCode::kDisconnected; }
+
+/// Runs `op` (returning Status or Result<T>) under the retry policy.
+template <typename Op>
+auto with_retry(const RetryPolicy& policy, const char* what, Op op) -> decltype(op()) {
+  double backoff_s = policy.initial_backoff_s;
+  for (int attempt = 1;; ++attempt) {
+    auto r = op();
+    if (r || !retryable(r.error().code) || attempt >= policy.max_attempts) {
+      if (!r && retryable(r.error().code))
+        log::get("capture")->error("{} failed {} times, giving up: {}", what, attempt, r.error().describe());
+      return r;
+    }
+    log::get("capture")->warn("{} failed (attempt {}/{}): {}; retrying in {:.3f} s", what, attempt,
+                              policy.max_attempts, r.error().describe(), backoff_s);
+    std::this_thread::sleep_for(std::chrono::duration<double>(backoff_s));
+    backoff_s = std::min(policy.max_backoff_s, backoff_s * 2.0);
+  }
+}
+
+bool stop_now(const CaptureOptions& o) { return o.stop_requested && o.stop_requested->load(); }
+
+}  // namespace
 
 Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options) {
   std::string why;
   if (!options.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "capture options: " + why);
   auto logger = log::get("capture");
+  BracketSpec bracket = options.effective_bracket();
   const auto& views = session.manifest().views;
+
+  auto info = with_retry(options.retry, "camera info", [&] { return rig.camera->info(); });
+  if (!info) return info.error();
+  if (info->auto_exposure_on) {
+    logger->warn("camera {} reports auto exposure/gain ON: bracket exposures will not be what is recorded",
+                 info->model);
+    (void)session.append_event({{"event", "warning"}, {"message", "camera auto exposure is on"}});
+  }
+  if (bracket.kind == BracketSpec::Kind::kAuto) {
+    // The camera's range bounds the search; the spec's floor/ceiling stay the user's intent.
+    bracket.ceiling_s = std::min(bracket.ceiling_s, info->max_exposure_s);
+    bracket.floor_s = std::clamp(bracket.floor_s, info->min_exposure_s, bracket.ceiling_s);
+  }
+  // Worst case for one view: every frame as an uncompressed image.
+  const uint64_t bytes_per_frame = static_cast<uint64_t>(std::max(info->width, 1)) * std::max(info->height, 1) * 3 *
+                                   (info->bits > 8 ? 2 : 1);
+  const uint64_t view_bytes = bytes_per_frame * static_cast<uint64_t>(bracket.max_frames()) + 4096;
+
   const auto start = std::chrono::steady_clock::now();
   CaptureProgress progress;
   progress.views_total = static_cast<int>(views.size());
   progress.views_done = session.completed_view_count();
   const int done_at_start = progress.views_done;
-  for (const PlannedView& view : views) {
-    if (session.view_complete(view.index)) continue;
-    if (options.stop_requested && options.stop_requested->load()) return make_error(ErrorCode::kCancelled, "capture stopped");
-    progress.view = view.index;
-    VDRIG_TRY(rig.stage->move_to(view.target));
-    auto measured = rig.stage->position();
-    if (!measured) return measured.error();
-    for (size_t b = 0; b < options.exposures_s.size(); ++b) {
-      progress.bracket_index = static_cast<int>(b);
-      VDRIG_TRY(rig.camera->set_exposure(options.exposures_s[b], options.gain));
-      auto frame = rig.camera->capture();
-      if (!frame) return frame.error();
-      frame->commanded = view.target;
-      frame->measured = measured.value();
-      auto record = session.append_frame(view.index, static_cast<int>(b), frame.value(), frame_saturated(frame.value()));
-      if (!record) return record.error();
-    }
-    VDRIG_TRY(session.mark_view_complete(view.index));
-    ++progress.views_done;
+  auto report = [&](bool view_finished) {
+    progress.view_finished = view_finished;
     progress.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const int done_now = progress.views_done - done_at_start;
     progress.eta_s = done_now > 0 ? progress.elapsed_s / done_now * (progress.views_total - progress.views_done) : 0.0;
     if (options.on_progress) options.on_progress(progress);
-    logger->debug("view {} done ({}/{})", view.index, progress.views_done, progress.views_total);
+  };
+
+  for (const PlannedView& view : views) {
+    if (session.view_complete(view.index)) continue;
+    if (stop_now(options)) return make_error(ErrorCode::kCancelled, "capture stopped");
+    auto free_bytes = free_disk_bytes(session.dir());
+    if (!free_bytes) return free_bytes.error();
+    if (free_bytes.value() < options.disk_reserve_bytes + view_bytes)
+      return make_error(ErrorCode::kNoSpace, "only " + std::to_string(free_bytes.value() >> 20) + " MiB free on " +
+                                                 session.dir().string() + " (reserve " +
+                                                 std::to_string(options.disk_reserve_bytes >> 20) +
+                                                 " MiB + one view); free space and resume");
+    progress.view = view.index;
+    VDRIG_TRY(with_retry(options.retry, "stage move", [&] { return rig.stage->move_to(view.target); }));
+    auto measured = with_retry(options.retry, "stage position", [&] { return rig.stage->position(); });
+    if (!measured) return measured.error();
+
+    int frames = 0;
+    double exposure_s = bracket.kind == BracketSpec::Kind::kFixed ? bracket.exposures_s[0] : bracket.ceiling_s;
+    for (int b = 0;; ++b) {
+      // A stop request between frames of a view leaves the view incomplete: it is redone whole on resume.
+      if (b > 0 && stop_now(options)) return make_error(ErrorCode::kCancelled, "capture stopped mid-view");
+      progress.bracket_index = b;
+      VDRIG_TRY(with_retry(options.retry, "camera set_exposure",
+                           [&] { return rig.camera->set_exposure(exposure_s, options.gain); }));
+      auto frame = with_retry(options.retry, "camera capture", [&] { return rig.camera->capture(); });
+      if (!frame) return frame.error();
+      frame->commanded = view.target;
+      frame->measured = measured.value();
+      const bool saturated = frame_saturated(frame.value(), bracket.roi);
+      auto record = session.append_frame(view.index, b, frame.value(), saturated);
+      if (!record) return record.error();
+      ++frames;
+      progress.exposure_s = frame->exposure_s;
+      report(false);
+      if (bracket.kind == BracketSpec::Kind::kFixed) {
+        if (frames >= static_cast<int>(bracket.exposures_s.size())) break;
+        exposure_s = bracket.exposures_s[frames];
+      } else {
+        if (!saturated) break;
+        if (exposure_s / 2.0 < bracket.floor_s * (1 - 1e-9)) {
+          logger->warn("view {}: still saturated at the floor exposure {} s", view.index, exposure_s);
+          break;
+        }
+        exposure_s /= 2.0;
+      }
+    }
+    VDRIG_TRY(session.mark_view_complete(view.index, frames));
+    ++progress.views_done;
+    report(true);
+    logger->debug("view {} done ({}/{}), {} frames", view.index, progress.views_done, progress.views_total, frames);
   }
   return Status::ok();
+}
+
+Status run_session(rig::Rig& rig, Session& session, const CaptureOptions& options, bool park) {
+  VDRIG_TRY(with_retry(options.retry, "stage home", [&] { return rig.stage->home(); }));
+  const Status s = run_capture(rig, session, options);
+  if (park) {
+    const Status p = rig.stage->move_to(PanTilt{0.0, 0.0});
+    if (!p) log::get("capture")->warn("parking the axes failed: {}", p.describe());
+  }
+  if (!s) {
+    (void)session.append_event({{"event", "stopped"}, {"code", to_string(s.error().code)}, {"message", s.error().message}});
+  }
+  return s;
 }
 
 }  // namespace vdrig::capture

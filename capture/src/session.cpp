@@ -167,6 +167,10 @@ Result<Session> Session::open(const fs::path& dir) {
     if (end == std::string::npos) {
       // No newline: the process died while appending this line. It was never acknowledged; drop it.
       log::get("capture")->warn("session {}: dropping torn last journal line {}", dir.string(), line_no);
+      // Cut it off, or the next append would glue a new line onto it and corrupt the journal.
+      std::error_code ec;
+      fs::resize_file(dir / "journal.jsonl", pos, ec);
+      if (ec) return make_error(ErrorCode::kIo, "cannot truncate torn journal line: " + ec.message());
       break;
     }
     const std::string line = text.substr(pos, end - pos);
@@ -181,7 +185,7 @@ Result<Session> Session::open(const fs::path& dir) {
       if (!r) return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + ": " + r.error().message);
       s.frames_.push_back(r.value());
     } else if (type == "view_complete") {
-      s.complete_views_[j.value("view", -1)] = true;
+      s.complete_views_[j.value("view", -1)] = j.value("frames", -1);
     }  // other types (events, faults) are informational
   }
   return s;
@@ -191,9 +195,12 @@ std::vector<FrameRecord> Session::frames_of_view(int view) const {
   std::vector<FrameRecord> out;
   for (const auto& f : frames_)
     if (f.view == view) out.push_back(f);
-  // A resumed view may have frames of an interrupted attempt before its complete set: keep the last per bracket.
+  // A resumed view may have frames of an interrupted attempt before its complete set: keep the last per bracket,
+  // and only the brackets its completion marker counts (an auto bracket of an interrupted attempt may differ).
+  const int count = view_frame_count(view);
   std::map<int, FrameRecord> last;
-  for (const auto& f : out) last[f.bracket_index] = f;
+  for (const auto& f : out)
+    if (count < 0 || f.bracket_index < count) last[f.bracket_index] = f;
   out.clear();
   for (auto& [k, f] : last) out.push_back(f);
   return out;
@@ -201,6 +208,7 @@ std::vector<FrameRecord> Session::frames_of_view(int view) const {
 
 Status Session::append_journal(const json& line) {
   const fs::path path = dir_ / "journal.jsonl";
+  if (write_hook_) VDRIG_TRY(write_hook_(path));
   const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
   if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
   const std::string text = line.dump() + "\n";
@@ -221,6 +229,7 @@ Status Session::append_journal(const json& line) {
 Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Frame& frame, bool saturated) {
   char name[64];
   std::snprintf(name, sizeof name, "frames/view_%04d_e%02d.png", view, bracket_index);
+  if (write_hook_) VDRIG_TRY(write_hook_(dir_ / name));
   VDRIG_TRY(write_png(dir_ / name, frame.image));
   FrameRecord r;
   r.view = view;
@@ -239,10 +248,24 @@ Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Fra
   return r;
 }
 
-Status Session::mark_view_complete(int view) {
-  VDRIG_TRY(append_journal({{"type", "view_complete"}, {"view", view}}));
-  complete_views_[view] = true;
+Status Session::mark_view_complete(int view, int frames) {
+  json line = {{"type", "view_complete"}, {"view", view}};
+  if (frames >= 0) line["frames"] = frames;
+  VDRIG_TRY(append_journal(line));
+  complete_views_[view] = frames;
   return Status::ok();
+}
+
+int Session::view_frame_count(int view) const {
+  const auto it = complete_views_.find(view);
+  return it == complete_views_.end() ? -1 : it->second;
+}
+
+Status Session::append_event(const json& event) {
+  json line = event;
+  line["type"] = "event";
+  line["utc"] = utc_now();
+  return append_journal(line);
 }
 
 Result<cv::Mat> Session::load_image(const FrameRecord& record) const { return read_png(dir_ / record.file); }

@@ -5,29 +5,55 @@
 
 namespace vdrig::sim {
 
-cv::Mat render_radiance(const Scene& scene, const CameraModel& camera, const ViewPose& pose, int samples_per_axis) {
+RayTable::RayTable(const CameraModel& camera, int samples_per_axis) : camera_(camera), n_(samples_per_axis) {
   VDRIG_CHECK(samples_per_axis >= 1, "at least one sample per pixel");
+  const int n = n_;
+  rays_.resize(static_cast<size_t>(camera.width) * camera.height * n * n);
+  cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        cv::Vec3f* out = &rays_[(static_cast<size_t>(y) * camera.width + x) * n * n];
+        for (int sy = 0; sy < n; ++sy)
+          for (int sx = 0; sx < n; ++sx) {
+            // Pixel (x, y) covers [x - 0.5, x + 0.5]: stratified sample centres.
+            const Vec3d r = camera.pixel_ray({x - 0.5 + (sx + 0.5) / n, y - 0.5 + (sy + 0.5) / n});
+            *out++ = cv::Vec3f(static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()));
+          }
+      }
+  });
+}
+
+bool RayTable::matches(const CameraModel& c, int samples_per_axis) const {
+  const CameraModel& m = camera_;
+  return n_ == samples_per_axis && m.width == c.width && m.height == c.height && m.fx == c.fx && m.fy == c.fy &&
+         m.cx == c.cx && m.cy == c.cy && m.k1 == c.k1 && m.k2 == c.k2 && m.p1 == c.p1 && m.p2 == c.p2 && m.k3 == c.k3;
+}
+
+cv::Mat render_radiance(const Scene& scene, const CameraModel& camera, const ViewPose& pose, int samples_per_axis) {
+  return render_radiance(scene, RayTable(camera, samples_per_axis), pose);
+}
+
+cv::Mat render_radiance(const Scene& scene, const RayTable& table, const ViewPose& pose) {
+  const CameraModel& camera = table.camera();
   cv::Mat out(camera.height, camera.width, CV_32FC3, cv::Scalar::all(0));
   const Mat3d Rt = pose.R.transpose();
   const Vec3d centre = pose.camera_centre();  // surface frame
-  const int n = samples_per_axis;
-  const double inv_n2 = 1.0 / (n * n);
+  const int n2 = table.samples_per_axis() * table.samples_per_axis();
+  const double inv_n2 = 1.0 / n2;
   cv::parallel_for_(cv::Range(0, camera.height), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       auto* row = out.ptr<cv::Vec3f>(y);
       for (int x = 0; x < camera.width; ++x) {
         Vec3d sum = Vec3d::Zero();
-        for (int sy = 0; sy < n; ++sy)
-          for (int sx = 0; sx < n; ++sx) {
-            // Pixel (x, y) covers [x - 0.5, x + 0.5]: stratified sample centres.
-            const Vec2d pix(x - 0.5 + (sx + 0.5) / n, y - 0.5 + (sy + 0.5) / n);
-            const Vec3d ray = Rt * camera.pixel_ray(pix);  // surface frame
-            if (std::abs(ray.z()) < 1e-12) continue;
-            const double s = -centre.z() / ray.z();
-            if (s <= 0) continue;
-            const Vec3d p = centre + s * ray;
-            sum += scene.radiance({p.x(), p.y(), 0.0}, -ray);
-          }
+        const cv::Vec3f* rays = table.rays(x, y);
+        for (int k = 0; k < n2; ++k) {
+          const Vec3d ray = Rt * Vec3d(rays[k][0], rays[k][1], rays[k][2]);  // surface frame
+          if (std::abs(ray.z()) < 1e-12) continue;
+          const double s = -centre.z() / ray.z();
+          if (s <= 0) continue;
+          const Vec3d p = centre + s * ray;
+          sum += scene.radiance({p.x(), p.y(), 0.0}, -ray.normalized());
+        }
         sum *= inv_n2;
         row[x] = cv::Vec3f(static_cast<float>(sum[2]), static_cast<float>(sum[1]), static_cast<float>(sum[0]));
       }
@@ -70,7 +96,8 @@ cv::Mat expose(const cv::Mat& radiance, double exposure_s, double gain, const Se
           double X = in[x][c] * scale * vig;
           if (sensor.full_well_e > 0) {
             const double electrons = std::max(0.0, X * sensor.full_well_e);
-            double e = electrons < 1e7 ? static_cast<double>(std::poisson_distribution<long>(electrons)(rng)) : electrons;
+            double e =
+                electrons < 1e7 ? static_cast<double>(std::poisson_distribution<long>(electrons)(rng)) : electrons;
             if (sensor.read_noise_e > 0) e += read(rng);
             X = e / sensor.full_well_e;
           }

@@ -1,5 +1,6 @@
 #include "vdrig/sim/sim_rig.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <set>
@@ -28,6 +29,11 @@ double trapezoid_time_s(double distance, double max_speed, double accel) {
   return 2.0 * max_speed / accel + (distance - ramp) / max_speed;
 }
 
+bool SimFaults::any() const {
+  return !move_timeout_at.empty() || !drive_error_at.empty() || !drop_frame_at.empty() ||
+         !disconnect_camera_at.empty() || slow_write_ms > 0;
+}
+
 SimConfig::SimConfig() {
   stage.pan = {deg_to_rad(-360), deg_to_rad(360), deg_to_rad(30), deg_to_rad(60), false};
   stage.tilt = {deg_to_rad(-5), deg_to_rad(85), deg_to_rad(30), deg_to_rad(60), false};
@@ -36,17 +42,39 @@ SimConfig::SimConfig() {
 Result<SimConfig> SimConfig::from_json(const json& j) {
   SimConfig c;
   try {
-    VDRIG_TRY(reject_unknown(j, {"scene", "distance_mm", "samples_per_axis", "time_scale", "seed", "camera", "stage"},
+    VDRIG_TRY(reject_unknown(j,
+                             {"scene", "distance_mm", "surface_offset_mm", "samples_per_axis", "time_scale", "seed",
+                              "camera", "stage", "faults"},
                              "sim"));
     c.scene = j.value("scene", c.scene);
     c.geometry.camera_distance_mm = j.value("distance_mm", c.geometry.camera_distance_mm);
+    if (j.contains("surface_offset_mm")) {
+      const auto o = j["surface_offset_mm"].get<std::vector<double>>();
+      if (o.size() != 3) return make_error(ErrorCode::kInvalidArgument, "sim.surface_offset_mm must be [x, y, z]");
+      c.geometry.surface_offset_mm = Vec3d(o[0], o[1], o[2]);
+    }
+    if (j.contains("faults")) {
+      const json& f = j["faults"];
+      VDRIG_TRY(reject_unknown(f,
+                               {"move_timeout_at", "drive_error_at", "drop_frame_at", "disconnect_camera_at",
+                                "disconnect_calls", "slow_write_ms"},
+                               "sim.faults"));
+      using List = std::vector<uint64_t>;
+      c.faults.move_timeout_at = f.value("move_timeout_at", List{});
+      c.faults.drive_error_at = f.value("drive_error_at", List{});
+      c.faults.drop_frame_at = f.value("drop_frame_at", List{});
+      c.faults.disconnect_camera_at = f.value("disconnect_camera_at", List{});
+      c.faults.disconnect_calls = f.value("disconnect_calls", c.faults.disconnect_calls);
+      c.faults.slow_write_ms = f.value("slow_write_ms", c.faults.slow_write_ms);
+    }
     c.samples_per_axis = j.value("samples_per_axis", c.samples_per_axis);
     c.time_scale = j.value("time_scale", c.time_scale);
     c.sensor.seed = j.value("seed", c.sensor.seed);
     if (j.contains("camera")) {
       const json& cam = j["camera"];
-      VDRIG_TRY(reject_unknown(cam, {"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits",
-                                     "response", "full_well_e", "read_noise_e", "vignetting"},
+      VDRIG_TRY(reject_unknown(cam,
+                               {"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits",
+                                "response", "full_well_e", "read_noise_e", "vignetting"},
                                "sim.camera"));
       CameraModel& m = c.camera;
       m.width = cam.value("width", m.width);
@@ -75,9 +103,9 @@ Result<SimConfig> SimConfig::from_json(const json& j) {
     }
     if (j.contains("stage")) {
       const json& st = j["stage"];
-      VDRIG_TRY(reject_unknown(st, {"pan_min_deg", "pan_max_deg", "tilt_min_deg", "tilt_max_deg", "speed_deg_s",
-                                    "accel_deg_s2"},
-                               "sim.stage"));
+      VDRIG_TRY(reject_unknown(
+          st, {"pan_min_deg", "pan_max_deg", "tilt_min_deg", "tilt_max_deg", "speed_deg_s", "accel_deg_s2"},
+          "sim.stage"));
       auto deg = [&](const char* k, double def_rad) { return deg_to_rad(st.value(k, rad_to_deg(def_rad))); };
       c.stage.pan.min_rad = deg("pan_min_deg", c.stage.pan.min_rad);
       c.stage.pan.max_rad = deg("pan_max_deg", c.stage.pan.max_rad);
@@ -104,12 +132,27 @@ bool SimConfig::is_valid(std::string* why) const {
   if (samples_per_axis < 1 || samples_per_axis > 8) return fail("samples_per_axis must be 1..8");
   if (time_scale < 0) return fail("time_scale must be >= 0");
   if (!(geometry.camera_distance_mm > 0)) return fail("distance_mm must be positive");
+  if (!geometry.surface_offset_mm.allFinite() || geometry.surface_offset_mm.norm() >= geometry.camera_distance_mm)
+    return fail("surface_offset_mm must be finite and nearer the axes than the camera");
+  if (!(faults.slow_write_ms >= 0)) return fail("faults.slow_write_ms must be >= 0");
+  for (const auto* list :
+       {&faults.move_timeout_at, &faults.drive_error_at, &faults.drop_frame_at, &faults.disconnect_camera_at})
+    for (uint64_t n : *list)
+      if (n == 0) return fail("fault call numbers count from 1");
   if (stage.pan.min_rad > stage.pan.max_rad || stage.tilt.min_rad > stage.tilt.max_rad) return fail("empty axis range");
   if (stage.pan.max_speed_rad_s <= 0 || stage.pan.accel_rad_s2 <= 0) return fail("speed and acceleration must be > 0");
   return true;
 }
 
 namespace {
+
+bool contains(const std::vector<uint64_t>& list, uint64_t n) {
+  return std::find(list.begin(), list.end(), n) != list.end();
+}
+
+void sleep_s(double s) {
+  if (s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(s));
+}
 
 class SimStage final : public rig::PanTiltStage {
  public:
@@ -118,41 +161,62 @@ class SimStage final : public rig::PanTiltStage {
   rig::StageSpec spec() const override { return world_->config.stage; }
 
   Status home() override {
-    PanTilt zero;
-    VDRIG_TRY(move_to(zero));
+    VDRIG_TRY(move(PanTilt{}, false));
     std::lock_guard lock(world_->mutex);
     world_->homed = true;
     return Status::ok();
   }
 
-  Status move_to(const PanTilt& target) override {
-    const rig::StageSpec& s = world_->config.stage;
-    if (target.pan_rad < s.pan.min_rad || target.pan_rad > s.pan.max_rad || target.tilt_rad < s.tilt.min_rad ||
-        target.tilt_rad > s.tilt.max_rad)
-      return make_error(ErrorCode::kInvalidArgument, "sim stage: target outside the axis limits");
-    PanTilt from;
-    {
-      std::lock_guard lock(world_->mutex);
-      from = world_->position;
-    }
-    const double t = std::max(trapezoid_time_s(target.pan_rad - from.pan_rad, s.pan.max_speed_rad_s, s.pan.accel_rad_s2),
-                              trapezoid_time_s(target.tilt_rad - from.tilt_rad, s.tilt.max_speed_rad_s,
-                                               s.tilt.accel_rad_s2));
-    if (world_->config.time_scale > 0)
-      std::this_thread::sleep_for(std::chrono::duration<double>(t * world_->config.time_scale));
-    std::lock_guard lock(world_->mutex);
-    world_->position = target;
-    return Status::ok();
-  }
+  Status move_to(const PanTilt& target) override { return move(target, true); }
 
   Result<PanTilt> position() override {
     std::lock_guard lock(world_->mutex);
     return world_->position;
   }
 
-  Status stop() override { return Status::ok(); }
+  Status stop() override {
+    sleep_s(world_->config.faults.slow_write_ms / 1000.0);
+    return Status::ok();
+  }
 
  private:
+  /// A move of both axes at once; `counted` moves are numbered for fault injection.
+  Status move(const PanTilt& target, bool counted) {
+    const SimConfig& c = world_->config;
+    const rig::StageSpec& s = c.stage;
+    sleep_s(c.faults.slow_write_ms / 1000.0);
+    // Out-of-range targets are refused, never clamped: a clamped move would photograph the wrong direction.
+    if (!(target.pan_rad >= s.pan.min_rad && target.pan_rad <= s.pan.max_rad && target.tilt_rad >= s.tilt.min_rad &&
+          target.tilt_rad <= s.tilt.max_rad))
+      return make_error(ErrorCode::kInvalidArgument,
+                        "sim stage: target (" + std::to_string(rad_to_deg(target.pan_rad)) + ", " +
+                            std::to_string(rad_to_deg(target.tilt_rad)) + ") deg outside the axis limits");
+    PanTilt from;
+    uint64_t call = 0;
+    {
+      std::lock_guard lock(world_->mutex);
+      from = world_->position;
+      if (counted) call = ++world_->move_calls;
+    }
+    if (counted && contains(c.faults.drive_error_at, call))
+      return make_error(ErrorCode::kDevice,
+                        "sim stage: drive alarm (injected fault, move " + std::to_string(call) + ")");
+    const bool times_out = counted && contains(c.faults.move_timeout_at, call);
+    PanTilt reached = target;
+    if (times_out) reached = {(from.pan_rad + target.pan_rad) / 2.0, (from.tilt_rad + target.tilt_rad) / 2.0};
+    const double t =
+        std::max(trapezoid_time_s(reached.pan_rad - from.pan_rad, s.pan.max_speed_rad_s, s.pan.accel_rad_s2),
+                 trapezoid_time_s(reached.tilt_rad - from.tilt_rad, s.tilt.max_speed_rad_s, s.tilt.accel_rad_s2));
+    sleep_s(t * c.time_scale);
+    std::lock_guard lock(world_->mutex);
+    world_->position = reached;
+    world_->motion_time_s += t;
+    if (times_out)
+      return make_error(ErrorCode::kTimeout,
+                        "sim stage: move did not finish in time (injected fault, move " + std::to_string(call) + ")");
+    return Status::ok();
+  }
+
   std::shared_ptr<SimWorld> world_;
 };
 
@@ -162,15 +226,21 @@ class SimCamera final : public rig::Camera {
   std::string backend() const override { return "sim"; }
 
   Result<rig::CameraInfo> info() override {
+    {
+      std::lock_guard lock(world_->mutex);
+      VDRIG_TRY(check_connected_locked());
+    }
     const auto& c = world_->config;
-    return rig::CameraInfo{"vdrig simulated camera", c.camera.width, c.camera.height, c.sensor.response.bits(), 1e-6,
-                           60.0, false};
+    return rig::CameraInfo{
+        "vdrig simulated camera", c.camera.width, c.camera.height, c.sensor.response.bits(), 1e-6, 60.0, false};
   }
 
   Status set_exposure(double exposure_s, double gain) override {
+    sleep_s(world_->config.faults.slow_write_ms / 1000.0);
     if (!(exposure_s > 0) || !(gain > 0))
       return make_error(ErrorCode::kInvalidArgument, "sim camera: exposure and gain must be positive");
     std::lock_guard lock(world_->mutex);
+    VDRIG_TRY(check_connected_locked());
     world_->exposure_s = exposure_s;
     world_->gain = gain;
     return Status::ok();
@@ -179,27 +249,42 @@ class SimCamera final : public rig::Camera {
   Result<Frame> capture() override {  // NOLINT(readability-function-size)
     ViewPose pose;
     Frame frame;
+    bool light_on = true;
+    const auto& c = world_->config;
     {
       std::lock_guard lock(world_->mutex);
+      const uint64_t call = ++world_->capture_calls;
+      if (world_->disconnected_at_call == 0 && contains(c.faults.disconnect_camera_at, call))
+        world_->disconnected_at_call = call;
+      VDRIG_TRY(check_connected_locked());
+      if (contains(c.faults.drop_frame_at, call)) {
+        ++world_->frame_sequence;  // the sensor exposed it; it never arrived
+        return make_error(ErrorCode::kTimeout,
+                          "sim camera: frame did not arrive (injected fault, capture " + std::to_string(call) + ")");
+      }
       pose = world_->pose();
       frame.exposure_s = world_->exposure_s;
       frame.gain = world_->gain;
       frame.measured = world_->position;
       frame.commanded = world_->position;
       frame.sequence = world_->frame_sequence++;
+      light_on = world_->light_on;
+      if (!world_->rays || !world_->rays->matches(c.camera, c.samples_per_axis))
+        world_->rays = std::make_shared<const RayTable>(c.camera, c.samples_per_axis);
     }
-    const auto& c = world_->config;
-    frame.timestamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             std::chrono::system_clock::now().time_since_epoch())
-                             .count();
+    frame.timestamp_ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+            .count();
     frame.bits = c.sensor.response.bits();
     // A bracket photographs the same pose several times: render the radiance once per pose and light state.
-    const bool light_on = world_->light_on;
     if (cached_.empty() || cached_position_.pan_rad != frame.measured.pan_rad ||
         cached_position_.tilt_rad != frame.measured.tilt_rad || cached_light_on_ != light_on) {
       Scene scene = world_->scene;
-      if (!light_on) scene.lights.clear();
-      cached_ = render_radiance(scene, c.camera, pose, c.samples_per_axis);
+      if (!light_on) {
+        scene.lights.clear();
+        scene.area_lights.clear();
+      }
+      cached_ = render_radiance(scene, *world_->rays, pose);
       cached_position_ = frame.measured;
       cached_light_on_ = light_on;
     }
@@ -208,6 +293,21 @@ class SimCamera final : public rig::Camera {
   }
 
  private:
+  /// kDisconnected while an injected disconnection lasts (counts the calls it refuses). Caller holds the mutex.
+  Status check_connected_locked() {
+    SimWorld& w = *world_;
+    if (w.disconnected_at_call == 0) return Status::ok();
+    const uint64_t limit = w.config.faults.disconnect_calls;
+    if (limit > 0 && w.camera_calls_while_disconnected >= limit) {
+      w.disconnected_at_call = 0;  // plugged back in
+      w.camera_calls_while_disconnected = 0;
+      return Status::ok();
+    }
+    ++w.camera_calls_while_disconnected;
+    return make_error(ErrorCode::kDisconnected, "sim camera: camera went away (injected fault at capture " +
+                                                    std::to_string(w.disconnected_at_call) + ")");
+  }
+
   std::shared_ptr<SimWorld> world_;
   cv::Mat cached_;
   PanTilt cached_position_;
@@ -242,6 +342,7 @@ Result<std::shared_ptr<SimWorld>> shared_world(rig::RigContext& ctx) {
   ctx.shared["sim.world"] = world;
   log::get("sim")->debug("simulated rig: scene {}, camera {}x{}", world->scene.name, world->config.camera.width,
                          world->config.camera.height);
+  if (world->config.faults.any()) log::get("sim")->info("simulated rig: fault injection is on");
   return world;
 }
 

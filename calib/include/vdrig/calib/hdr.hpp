@@ -31,6 +31,8 @@ enum HdrMaskBits : uint8_t {
 /// - `mask`: CV_8UC1 of HdrMaskBits (0 where at least one exposure saw the pixel unclipped in every channel).
 /// - `exposures_s`, `gains`: the bracket that was merged, in input order (metadata, written to the EXR header).
 /// - `bits`: significant bits of the input codes.
+/// Channel order: Frames and `radiance` are B, G, R (OpenCV); ResponseCurve channels are R, G, B (as sim renders),
+/// so image channel c goes through response channel 2 - c.
 struct HdrImage {
   static constexpr int kFormatVersion = 1;
 

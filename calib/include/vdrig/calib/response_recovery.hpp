@@ -24,7 +24,7 @@ struct ResponseRecoveryOptions {
   unsigned seed = 1;
 };
 
-/// The curve plus what the fit saw, for the log and the report.
+/// The curve plus what the fit saw, for the log and the report. Arrays are indexed like the curve: R, G, B.
 struct RecoveredResponse {
   ResponseCurve curve;
   std::array<int, 3> samples{};              // pixels used per channel
@@ -41,9 +41,11 @@ struct RecoveredResponse {
 /// value so that the code range is covered evenly (not just the common mid-tones).
 ///
 /// The result is made monotonic (non-decreasing) and scaled: the channels share inverse(mid code) (a bracket cannot
-/// see channel gains, so a pixel at mid code in all channels is taken as neutral), and the common factor puts the
-/// mean over channels of inverse(max_code) at 1 (the core convention "X = 1 saturates"), which leaves the mid code
-/// near the 0.1..0.3 of a typical camera.
+/// see channel gains, so a pixel at mid code in all channels is taken as neutral), and the common factor puts
+/// saturation at X = 1 (core's convention) on average over the channels, leaving the mid code near the 0.1..0.3 of a
+/// typical camera. Saturation is estimated by extending g linearly from codes 70..90 % of the range to max_code:
+/// the top codes themselves are poorly determined (few observations, biased by clipping with noise), so the stored
+/// inverse at the last few codes may differ from that estimate (up to ~2x with 1 code of noise).
 /// Needs at least two frames (validate_bracket's errors otherwise), and bits <= 12 (kUnsupported above: such
 /// cameras are raw/linear, use ResponseCurve::linear).
 Result<RecoveredResponse> recover_response(std::span<const Frame> frames, const ResponseRecoveryOptions& options = {});

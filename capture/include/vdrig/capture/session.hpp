@@ -10,6 +10,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -73,7 +74,8 @@ class Session {
   /// Creates the folder (must not exist or be empty) and writes the manifest.
   static Result<Session> create(const std::filesystem::path& dir, Manifest manifest);
   /// Opens an existing session; reads the manifest and replays the journal. A torn last journal line (a crash
-  /// mid-append) is dropped with a warning; any other malformed line is kCorrupt.
+  /// mid-append) is dropped with a warning and cut off the file (so the next append starts a clean line); any
+  /// other malformed line is kCorrupt.
   static Result<Session> open(const std::filesystem::path& dir);
 
   const std::filesystem::path& dir() const { return dir_; }
@@ -88,8 +90,19 @@ class Session {
 
   /// Writes the image (atomically, fsync'd) and then appends + fsyncs its journal line.
   Result<FrameRecord> append_frame(int view, int bracket_index, const Frame& frame, bool saturated);
-  /// Marks a view complete (journal line); a view is only skipped on resume once it is complete.
-  Status mark_view_complete(int view);
+  /// Marks a view complete (journal line) with the number of frames of its bracket (brackets 0..frames-1; -1 =
+  /// unknown, for old journals); a view is only skipped on resume once it is complete.
+  Status mark_view_complete(int view, int frames = -1);
+  /// Frames recorded by a view's completion marker (-1 when unknown or incomplete).
+  int view_frame_count(int view) const;
+  /// Appends an informational journal line ({"type": "event", ...}): faults, pauses, resumptions.
+  Status append_event(const nlohmann::json& event);
+
+  /// Test/fault-injection hook called before every file write of the session (frame image, journal line) with the
+  /// path about to be written; a failed Status is returned by that write as is (e.g. kNoSpace) and nothing is
+  /// written. Empty by default.
+  using WriteHook = std::function<Status(const std::filesystem::path&)>;
+  void set_write_hook(WriteHook hook) { write_hook_ = std::move(hook); }
   /// Loads a recorded frame's pixels (error if missing or undecodable).
   Result<cv::Mat> load_image(const FrameRecord& record) const;
 
@@ -103,7 +116,8 @@ class Session {
   std::filesystem::path dir_;
   Manifest manifest_;
   std::vector<FrameRecord> frames_;
-  std::map<int, bool> complete_views_;
+  std::map<int, int> complete_views_;  // view -> frame count (-1 unknown)
+  WriteHook write_hook_;
 };
 
 /// The software version written into manifests.

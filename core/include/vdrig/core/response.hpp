@@ -1,5 +1,6 @@
 // Camera response: the map from exposure X = radiance * exposure_s * gain to the stored pixel code.
 // Stored as its inverse per channel (code -> relative exposure), as Debevec-Malik recover it.
+// Channels are indexed R, G, B (0, 1, 2); images are stored B, G, R, so image channel c uses curve channel 2 - c.
 #pragma once
 
 #include <array>

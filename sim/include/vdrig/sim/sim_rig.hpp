@@ -1,19 +1,21 @@
 // The simulated rig: a PanTiltStage, a Camera and a Light behind the same interfaces as the hardware, sharing one
 // SimWorld (the platform's pose, the scene on it, the fixed camera). It is the default backend ("sim").
 //
-// Rig config section "sim" (edges in degrees, mm, seconds):
-//   { "scene": "patchwork", "distance_mm": 2500, "samples_per_axis": 2, "time_scale": 0 (0 = moves take no time,
-//     1 = real time), "seed": 1,
+// Rig config section "sim" (edges in degrees, mm, seconds); every key is optional, unknown keys are rejected:
+//   { "scene": "patchwork", "distance_mm": 2500, "surface_offset_mm": [0, 0, 0], "samples_per_axis": 2,
+//     "time_scale": 0 (0 = moves take no wall time, 1 = real time), "seed": 1,
 //     "camera": { "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 319.5, "cy": 239.5,
 //                 "k1": -0.08, "k2": 0.02, "p1": 0, "p2": 0, "k3": 0, "bits": 8,
 //                 "response": "s-curve" | "linear", "full_well_e": 0, "read_noise_e": 0, "vignetting": 0 },
 //     "stage": { "pan_min_deg": -360, "pan_max_deg": 360, "tilt_min_deg": -5, "tilt_max_deg": 85,
-//                "speed_deg_s": 30, "accel_deg_s2": 60 } }
+//                "speed_deg_s": 30, "accel_deg_s2": 60 },
+//     "faults": { see SimFaults } }
 #pragma once
 
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/rig/registry.hpp"
@@ -22,12 +24,33 @@
 
 namespace vdrig::sim {
 
+/// Injected device faults, for capture's recovery tests. Deterministic: each list holds 1-based call numbers of
+/// the device call that fails (the 3rd move_to is 3; home() is not counted as a move). What a failure does:
+///  - move_timeout_at (stage.move_to): kTimeout; the platform stopped half way (position() reads it back);
+///  - drive_error_at (stage.move_to): kDevice (drive alarm); the platform did not move;
+///  - drop_frame_at (camera.capture): kTimeout (no frame arrived); the frame counter still advances, so the next
+///    frame's sequence shows the gap as on a real camera;
+///  - disconnect_camera_at (camera.capture): kDisconnected from that call on, for every camera call (info,
+///    set_exposure, capture), for disconnect_calls calls (0 = until the rig is built again);
+///  - slow_write_ms: every stage command and set_exposure takes this much longer (wall time, not time-scaled).
+struct SimFaults {
+  std::vector<uint64_t> move_timeout_at;
+  std::vector<uint64_t> drive_error_at;
+  std::vector<uint64_t> drop_frame_at;
+  std::vector<uint64_t> disconnect_camera_at;
+  uint64_t disconnect_calls = 0;
+  double slow_write_ms = 0.0;
+
+  bool any() const;
+};
+
 struct SimConfig {
   std::string scene = "patchwork";
   CameraModel camera{640, 480, 800.0, 800.0, 319.5, 239.5, -0.08, 0.02, 0.0, 0.0, 0.0};
   SensorSettings sensor;
   rig::RigGeometry geometry;
   rig::StageSpec stage;
+  SimFaults faults;
   int samples_per_axis = 2;
   double time_scale = 0.0;
 
@@ -42,12 +65,18 @@ struct SimWorld {
   SimConfig config;
   Scene scene;
   std::mutex mutex;
-  PanTilt position;        // current platform position
+  PanTilt position;  // current platform position
   bool homed = false;
   uint64_t frame_sequence = 0;
   double exposure_s = 0.01;
   double gain = 1.0;
   bool light_on = true;
+  double motion_time_s = 0.0;         // simulated time spent moving so far (unscaled; also counted when time_scale = 0)
+  uint64_t move_calls = 0;            // stage.move_to calls so far (fault counters)
+  uint64_t capture_calls = 0;         // camera.capture calls so far
+  uint64_t disconnected_at_call = 0;  // capture call number at which the camera went away (0 = connected)
+  uint64_t camera_calls_while_disconnected = 0;
+  std::shared_ptr<const RayTable> rays;  // per-camera ray table, built at the first capture
 
   ViewPose pose() const { return rig::surface_pose(config.geometry, position); }
 };

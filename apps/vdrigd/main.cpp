@@ -1,0 +1,86 @@
+// vdrigd: runs capture sessions on the configured rig, controlled over a Unix socket (docs/protocol.md).
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <fstream>
+
+#include "vdrig/capture/daemon.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/sim/scene.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+
+namespace {
+vdrig::capture::Daemon* g_daemon = nullptr;
+extern "C" void on_signal(int) {
+  if (g_daemon) g_daemon->request_stop();  // async-signal-safe: an atomic store and a pipe write
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace vdrig;
+  CLI::App app{"vdrigd: the vdrig capture daemon"};
+  std::string runtime_dir = capture::default_runtime_dir().string();
+  std::string sessions_dir;
+  std::string rig_file;
+  std::string scene = "patchwork";
+  std::string level = "info";
+  long allowed_gid = -1;
+  double reserve_mb = 256;
+  app.add_option("--runtime-dir", runtime_dir, "folder of the control socket vdrigd.sock")->capture_default_str();
+  app.add_option("--sessions-dir", sessions_dir, "folder holding the sessions")->required();
+  app.add_option("--rig", rig_file, "rig config JSON (default: the simulator)");
+  app.add_option("--scene", scene, "simulator scene when no --rig is given")->capture_default_str();
+  app.add_option("--allowed-gid", allowed_gid, "also accept clients of this group");
+  app.add_option("--reserve-mb", reserve_mb, "free disk space to keep, MiB")->capture_default_str();
+  app.add_option("--log-level", level, "trace, debug, info, warn, error")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  log::set_level(level);
+  auto logger = log::get("vdrigd");
+
+  capture::DaemonConfig config;
+  config.runtime_dir = runtime_dir;
+  config.sessions_dir = sessions_dir;
+  if (allowed_gid >= 0) config.allowed_gid = static_cast<gid_t>(allowed_gid);
+  config.capture.disk_reserve_bytes = static_cast<uint64_t>(std::max(0.0, reserve_mb) * 1024 * 1024);
+  if (!rig_file.empty()) {
+    std::ifstream in(rig_file);
+    config.rig_config = nlohmann::json::parse(in, nullptr, false);
+    if (!in || config.rig_config.is_discarded()) {
+      logger->error("cannot read rig config {}", rig_file);
+      return 2;
+    }
+  } else {
+    config.rig_config = sim::sim_rig_config({{"scene", scene}});
+  }
+  auto registry = std::make_shared<rig::BackendRegistry>(pipeline::full_registry());
+  config.make_rig = [registry](const nlohmann::json& rc) { return registry->make_rig(rc); };
+  config.describe_surface = [](capture::Manifest& m) {
+    if (!m.rig_config.contains("sim")) return;
+    auto s = sim::make_scene(m.rig_config["sim"].value("scene", "patchwork"));
+    if (s) {
+      m.surface_width_mm = s->width_mm;
+      m.surface_height_mm = s->height_mm;
+    }
+  };
+
+  capture::Daemon daemon(config);
+  if (const Status s = daemon.start(); !s) {
+    logger->error("{}", s.describe());
+    return s.error().code == ErrorCode::kInvalidArgument ? 2 : 1;
+  }
+  g_daemon = &daemon;
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGINT, &sa, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+  const Status s = daemon.run();
+  g_daemon = nullptr;
+  if (!s) {
+    logger->error("{}", s.describe());
+    return 1;
+  }
+  return 0;
+}

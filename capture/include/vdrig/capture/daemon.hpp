@@ -1,0 +1,72 @@
+// vdrigd's engine: runs capture sessions on one rig in a worker thread, controlled over a Unix domain socket with
+// line-delimited JSON (docs/protocol.md). Kept in the library so tests run it in-process; apps/vdrigd is a shell.
+//
+// Threads: run() is a poll() loop that owns every socket and answers every request; one worker thread runs the
+// session in hand and talks back only through a mutex-guarded event queue and a wake-up pipe. Planning a new
+// session (scheme, route) and `home`/`move` run on the loop thread (short). No exception leaves run().
+#pragma once
+
+#include <sys/types.h>
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "vdrig/capture/capture.hpp"
+#include "vdrig/rig/devices.hpp"
+
+namespace vdrig::capture {
+
+struct DaemonConfig {
+  std::filesystem::path runtime_dir;   // the socket is runtime_dir/vdrigd.sock (0660); created 0770 if missing
+  std::filesystem::path sessions_dir;  // sessions live in sessions_dir/NAME
+  uid_t allowed_uid = static_cast<uid_t>(-1);  // -1: the daemon's own effective uid
+  std::optional<gid_t> allowed_gid;            // peers with this primary gid are accepted too
+  nlohmann::json rig_config;                   // rig used when `start` names none ("scene" overrides sim.scene)
+  /// Builds a rig from a config (e.g. a registry with the sim and hardware backends). Required.
+  std::function<Result<rig::Rig>(const nlohmann::json& rig_config)> make_rig;
+  /// Optional: fills in what the rig config implies about the surface (size) before the manifest is written.
+  std::function<void(Manifest& manifest)> describe_surface;
+  CaptureOptions capture;             // gain, disk reserve, retry policy (bracket comes from `start`)
+  std::size_t max_line_bytes = 64 * 1024;  // longer requests: error reply, connection closed
+  std::size_t max_output_bytes = 8 << 20;  // a client this far behind (not reading its events) is dropped
+  int max_clients = 64;
+
+  bool is_valid(std::string* why) const;
+};
+
+/// $XDG_RUNTIME_DIR/vdrig, or /run/vdrig when unset.
+std::filesystem::path default_runtime_dir();
+
+/// Session names: 1..64 characters of [A-Za-z0-9._-], not starting with '.' (no traversal, no hidden files).
+bool valid_session_name(const std::string& name, std::string* why = nullptr);
+
+class Daemon {
+ public:
+  explicit Daemon(DaemonConfig config);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  /// Validates the config, creates the runtime dir and binds the socket (a stale socket file is replaced; a live
+  /// daemon on it is kInvalidArgument).
+  Status start();
+  /// Serves until request_stop(): then stops the session after the frame in hand, parks the axes, closes and
+  /// removes the socket. Returns the first fatal loop error (poll failure), else ok.
+  Status run();
+  /// Async-signal-safe: asks run() to shut down (SIGTERM handler).
+  void request_stop();
+
+  std::filesystem::path socket_path() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vdrig::capture

@@ -1,0 +1,2 @@
+# The capture tests drive the simulated rig.
+set(capture_test_deps vdrig::sim)

@@ -1,0 +1,198 @@
+// The simulated rig behind the device interfaces: config keys, move timing, homing, limits, read-back, the surface
+// offset, injected faults, and that its frames are the renderer's.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "vdrig/rig/kinematics.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+
+namespace vdrig::sim {
+namespace {
+
+using nlohmann::json;
+
+json small_sim(json extra = json::object()) {
+  json j = {{"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}}}, {"samples_per_axis", 1}};
+  j.update(extra);
+  return j;
+}
+
+rig::Rig make(const json& sim_section) {
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  auto r = registry.make_rig(sim_rig_config(sim_section));
+  EXPECT_TRUE(r) << r.error().describe();
+  return std::move(r.value());
+}
+
+double seconds_of(const std::function<void()>& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TEST(SimConfig, ReadsKeysAndRejectsUnknownOnes) {
+  auto c = SimConfig::from_json({{"surface_offset_mm", {3, -4, 5}},
+                                 {"distance_mm", 2000},
+                                 {"faults", {{"drop_frame_at", {2, 5}}, {"slow_write_ms", 1.5}}},
+                                 {"stage", {{"tilt_max_deg", 80}}}});
+  ASSERT_TRUE(c) << c.error().describe();
+  EXPECT_EQ(c->geometry.surface_offset_mm, Vec3d(3, -4, 5));
+  EXPECT_EQ(c->geometry.camera_distance_mm, 2000);
+  EXPECT_EQ(c->faults.drop_frame_at, (std::vector<uint64_t>{2, 5}));
+  EXPECT_EQ(c->faults.slow_write_ms, 1.5);
+  EXPECT_NEAR(c->stage.tilt.max_rad, deg_to_rad(80), 1e-12);
+  for (const json& bad :
+       {json{{"scenery", "x"}}, json{{"faults", {{"drop_at", {1}}}}}, json{{"surface_offset_mm", {1, 2}}},
+        json{{"faults", {{"drive_error_at", {0}}}}}, json{{"camera", {{"bits", 20}}}}}) {
+    auto r = SimConfig::from_json(bad);
+    EXPECT_FALSE(r) << bad.dump();
+    if (!r) {
+      EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+    }
+  }
+}
+
+TEST(SimStage, TrapezoidTimes) {
+  // 90 deg at 30 deg/s, 60 deg/s^2: 0.5 s ramps over 7.5 deg each, 75 deg cruising at 30 deg/s -> 3.5 s.
+  EXPECT_NEAR(trapezoid_time_s(90, 30, 60), 3.5, 1e-12);
+  // 10 deg never reaches full speed: triangular, 2 sqrt(10 / 60).
+  EXPECT_NEAR(trapezoid_time_s(10, 30, 60), 2 * std::sqrt(10.0 / 60.0), 1e-12);
+  EXPECT_NEAR(trapezoid_time_s(-10, 30, 60), trapezoid_time_s(10, 30, 60), 1e-12);
+  EXPECT_EQ(trapezoid_time_s(0, 30, 60), 0.0);
+}
+
+TEST(SimStage, MovesTakeScaledTrapezoidTimeAndReadBack) {
+  rig::Rig r = make(small_sim({{"time_scale", 0.04}}));
+  const PanTilt target{deg_to_rad(90), deg_to_rad(10)};  // pan dominates: 3.5 s * 0.04 = 0.14 s
+  Status st;
+  const double t = seconds_of([&] { st = r.stage->move_to(target); });
+  ASSERT_TRUE(st) << st.describe();
+  EXPECT_GE(t, 0.14);
+  EXPECT_LT(t, 0.6);
+  auto pos = r.stage->position();
+  ASSERT_TRUE(pos);
+  EXPECT_EQ(pos->pan_rad, target.pan_rad);
+  EXPECT_EQ(pos->tilt_rad, target.tilt_rad);
+  // Homing drives back to zero (the same 3.5 s scaled).
+  const double th = seconds_of([&] { st = r.stage->home(); });
+  ASSERT_TRUE(st);
+  EXPECT_GE(th, 0.14);
+  EXPECT_EQ(r.stage->position()->pan_rad, 0.0);
+  EXPECT_EQ(r.stage->position()->tilt_rad, 0.0);
+}
+
+TEST(SimStage, TargetsOutsideTheLimitsAreErrorsNotClamps) {
+  rig::Rig r = make(small_sim());
+  const PanTilt ok{deg_to_rad(20), deg_to_rad(30)};
+  ASSERT_TRUE(r.stage->move_to(ok));
+  for (const PanTilt bad : {PanTilt{0, deg_to_rad(86)}, PanTilt{0, deg_to_rad(-6)}, PanTilt{deg_to_rad(361), 0},
+                            PanTilt{std::nan(""), 0}}) {
+    const Status st = r.stage->move_to(bad);
+    ASSERT_FALSE(st);
+    EXPECT_EQ(st.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_EQ(r.stage->position()->tilt_rad, ok.tilt_rad);  // did not move at all
+    EXPECT_EQ(r.stage->position()->pan_rad, ok.pan_rad);
+  }
+}
+
+TEST(SimCamera, FramesAreTheRenderedSceneAtTheStagePoseWithTheSurfaceOffset) {
+  const json section = small_sim(
+      {{"surface_offset_mm", {40, -25, 10}},
+       {"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"response", "linear"}, {"bits", 12}}}});
+  rig::Rig r = make(section);
+  const PanTilt pt{deg_to_rad(30), deg_to_rad(45)};
+  ASSERT_TRUE(r.stage->move_to(pt));
+  ASSERT_TRUE(r.camera->set_exposure(0.8, 1.0));
+  auto frame = r.camera->capture();
+  ASSERT_TRUE(frame) << frame.error().describe();
+  EXPECT_EQ(frame->measured.tilt_rad, pt.tilt_rad);
+  const SimConfig c = SimConfig::from_json(section).value();
+  const ViewPose pose = rig::surface_pose(c.geometry, pt);
+  const cv::Mat expected =
+      expose(render_radiance(make_scene("patchwork").value(), c.camera, pose, 1), 0.8, 1.0, c.sensor, frame->sequence);
+  EXPECT_EQ(cv::norm(frame->image, expected, cv::NORM_INF), 0.0);
+  // The offset matters: without it the image differs.
+  const cv::Mat centred =
+      expose(render_radiance(make_scene("patchwork").value(), c.camera, rig::surface_pose({}, pt), 1), 0.8, 1.0,
+             c.sensor, frame->sequence);
+  EXPECT_GT(cv::norm(frame->image, centred, cv::NORM_INF), 100.0);
+}
+
+TEST(SimFaults, MoveTimeoutStopsHalfWayAndDriveErrorDoesNotMove) {
+  rig::Rig r = make(small_sim({{"faults", {{"move_timeout_at", {2}}, {"drive_error_at", {3}}}}}));
+  ASSERT_TRUE(r.stage->home());  // not counted
+  const PanTilt a{deg_to_rad(40), deg_to_rad(20)};
+  ASSERT_TRUE(r.stage->move_to(a));                                // move 1
+  Status st = r.stage->move_to({deg_to_rad(80), deg_to_rad(60)});  // move 2: times out half way
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, ErrorCode::kTimeout);
+  EXPECT_NEAR(r.stage->position()->pan_rad, deg_to_rad(60), 1e-12);
+  EXPECT_NEAR(r.stage->position()->tilt_rad, deg_to_rad(40), 1e-12);
+  st = r.stage->move_to(a);  // move 3: drive alarm, stays put
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, ErrorCode::kDevice);
+  EXPECT_NEAR(r.stage->position()->pan_rad, deg_to_rad(60), 1e-12);
+  ASSERT_TRUE(r.stage->move_to(a));  // move 4: fine again
+  EXPECT_EQ(r.stage->position()->pan_rad, a.pan_rad);
+}
+
+TEST(SimFaults, DroppedFrameTimesOutAndLeavesASequenceGap) {
+  rig::Rig r = make(small_sim({{"faults", {{"drop_frame_at", {2}}}}}));
+  auto f1 = r.camera->capture();
+  ASSERT_TRUE(f1);
+  auto f2 = r.camera->capture();
+  ASSERT_FALSE(f2);
+  EXPECT_EQ(f2.error().code, ErrorCode::kTimeout);
+  auto f3 = r.camera->capture();
+  ASSERT_TRUE(f3);
+  EXPECT_EQ(f3->sequence, f1->sequence + 2);
+}
+
+TEST(SimFaults, CameraDisconnectsForGivenCallsOrForGood) {
+  {
+    rig::Rig r = make(small_sim({{"faults", {{"disconnect_camera_at", {2}}, {"disconnect_calls", 3}}}}));
+    ASSERT_TRUE(r.camera->capture());
+    auto f = r.camera->capture();  // call 2: gone (1st refused call)
+    ASSERT_FALSE(f);
+    EXPECT_EQ(f.error().code, ErrorCode::kDisconnected);
+    const Status st = r.camera->set_exposure(0.01, 1.0);  // 2nd refused call
+    ASSERT_FALSE(st);
+    EXPECT_EQ(st.error().code, ErrorCode::kDisconnected);
+    auto info = r.camera->info();  // 3rd
+    ASSERT_FALSE(info);
+    EXPECT_EQ(info.error().code, ErrorCode::kDisconnected);
+    EXPECT_TRUE(r.camera->capture());  // back
+  }
+  {
+    rig::Rig r = make(small_sim({{"faults", {{"disconnect_camera_at", {1}}}}}));
+    for (int i = 0; i < 5; ++i) {
+      auto f = r.camera->capture();
+      ASSERT_FALSE(f);
+      EXPECT_EQ(f.error().code, ErrorCode::kDisconnected);
+    }
+  }
+}
+
+TEST(SimFaults, SlowWritesAndDeterminism) {
+  rig::Rig r = make(small_sim({{"faults", {{"slow_write_ms", 40}}}}));
+  Status st;
+  EXPECT_GE(seconds_of([&] { st = r.stage->move_to({0.1, 0.1}); }), 0.04);
+  ASSERT_TRUE(st);
+  EXPECT_GE(seconds_of([&] { st = r.camera->set_exposure(0.01, 1.0); }), 0.04);
+  // Two rigs of one config (noise on) take identical photographs.
+  const json noisy = small_sim(
+      {{"seed", 9},
+       {"camera",
+        {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"full_well_e", 3000}, {"read_noise_e", 2}}}});
+  rig::Rig a = make(noisy), b = make(noisy);
+  for (rig::Rig* x : {&a, &b}) ASSERT_TRUE(x->stage->move_to({0.3, 0.5}));
+  auto fa = a.camera->capture(), fb = b.camera->capture();
+  ASSERT_TRUE(fa && fb);
+  EXPECT_EQ(cv::norm(fa->image, fb->image, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(fa->image, a.camera->capture()->image, cv::NORM_INF), 0.0);  // next frame: new noise
+}
+
+}  // namespace
+}  // namespace vdrig::sim

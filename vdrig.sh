@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# vdrig.sh: the two things a new user does first.
+#   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
+#   ./vdrig.sh test   set up, build, and pass the tests (Release, then again under ASan + UBSan)
+# Other verbs: build, bench, format-check. Options after the verb go to the demo (see: build/apps/vdrig demo --help).
+set -euo pipefail
+cd "$(dirname "$0")"
+
+verb=${1:-help}
+shift || true
+jobs=$(nproc)
+
+setup() { bash scripts/setup; }
+
+configure_and_build() {  # $1 = preset
+  cmake --preset "$1" >/dev/null
+  cmake --build --preset "$1" -j "$jobs"
+}
+
+# OpenGL rendering needs an X display: use the user's, or a private Xvfb server.
+with_display() {
+  if [ -n "${DISPLAY:-}" ]; then "$@"; else xvfb-run -a -s "-screen 0 1280x1024x24" "$@"; fi
+}
+
+case "$verb" in
+  demo)
+    setup
+    configure_and_build release
+    with_display build/release/apps/vdrig demo --out out/demo "$@"
+    ;;
+  test)
+    setup
+    configure_and_build ci
+    with_display ctest --preset ci
+    configure_and_build asan
+    export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+    export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
+    export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+    with_display ctest --preset asan
+    ;;
+  build)
+    setup
+    configure_and_build release
+    ;;
+  bench)
+    setup
+    configure_and_build release
+    for b in build/release/bench/bench_*; do echo "== $b"; with_display "$b"; done
+    ;;
+  format-check)
+    setup
+    git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
+    ;;
+  *)
+    sed -n '2,6p' "$0"
+    exit 2
+    ;;
+esac
