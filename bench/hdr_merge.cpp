@@ -97,15 +97,16 @@ int main() {
     for (int nthreads : {threads, 1}) {
       if (nthreads == 1 && threads == 1) continue;
       cv::setNumThreads(nthreads);
+      const auto row = [&](const char* method, double seconds, const Errors& e) {
+        std::printf("%-8s %-22s %9d %10.2f %10.1f %11.3f%% %8.2f%% / %.2f%%\n", stack, method, nthreads, 1e3 * seconds,
+                    mpix / seconds, 100 * e.median, 100 * e.p95, 100 * e.median_long_clipped);
+      };
       HdrImage ours;
       const double t_ours = median_seconds(7, [&] { ours = *merge_hdr(b.frames, response); });
       cv::Mat theirs;
       const double t_cv = median_seconds(5, [&] { merge_debevec->process(images, theirs, times, crf); });
-      const Errors e_ours = errors(b, ours.radiance), e_cv = errors(b, theirs);
-      std::printf("%-8s %-22s %9d %10.2f %10.1f %11.3f%% %8.2f%% / %.2f%%\n", stack, "vdrig merge_hdr", nthreads,
-                  1e3 * t_ours, mpix / t_ours, 100 * e_ours.median, 100 * e_ours.p95, 100 * e_ours.median_long_clipped);
-      std::printf("%-8s %-22s %9d %10.2f %10.1f %11.3f%% %8.2f%% / %.2f%%\n", stack, "cv::MergeDebevec", nthreads,
-                  1e3 * t_cv, mpix / t_cv, 100 * e_cv.median, 100 * e_cv.p95, 100 * e_cv.median_long_clipped);
+      row("vdrig merge_hdr", t_ours, errors(b, ours.radiance));
+      row("cv::MergeDebevec", t_cv, errors(b, theirs));
     }
     cv::setNumThreads(threads);
   }

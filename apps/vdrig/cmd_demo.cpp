@@ -52,8 +52,8 @@ Status run_demo(const DemoArgs& a) {
   for (int v = 0; v < n_views; ++v)
     if (std::find(held_out.begin(), held_out.end(), v) == held_out.end()) fit_views.push_back(v);
 
-  std::printf("3/5 observation map %dx%d from %zu views (%zu held out)\n", a.resolution, a.resolution,
-              fit_views.size(), held_out.size());
+  std::printf("3/5 observation map %dx%d from %zu views (%zu held out)\n", a.resolution, a.resolution, fit_views.size(),
+              held_out.size());
   auto obs = pipeline::build_session_obsmap(session.value(), a.resolution, a.resolution, fit_views);
   if (!obs) return obs.error();
 
@@ -102,7 +102,8 @@ Status run_demo(const DemoArgs& a) {
 
 const CommandRegistrar kDemo([](CLI::App& root) {
   auto args = std::make_shared<DemoArgs>();
-  auto* cmd = root.add_subcommand("demo", "Simulated capture -> HDR -> observation map -> Phong fit -> rendered images");
+  auto* cmd =
+      root.add_subcommand("demo", "Simulated capture -> HDR -> observation map -> Phong fit -> rendered images");
   cmd->add_option("--out", args->out, "output folder")->capture_default_str();
   cmd->add_option("--scene", args->scene, "simulated scene")->capture_default_str();
   cmd->add_option("--scheme", args->scheme, "sampling scheme (see docs/sampling.md)")->capture_default_str();

@@ -19,8 +19,8 @@ struct CommandRegistrar {
 
 /// Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;   // the work failed (device, I/O, data)
-inline constexpr int kExitUsage = 2;     // bad arguments or configuration
+inline constexpr int kExitFailure = 1;  // the work failed (device, I/O, data)
+inline constexpr int kExitUsage = 2;    // bad arguments or configuration
 
 /// Ends a subcommand: logs the error (if any) and throws CLI::RuntimeError with the matching exit code.
 void finish(const Status& status);

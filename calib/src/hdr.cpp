@@ -44,13 +44,15 @@ Result<std::vector<double>> parse_numbers(const std::string& s, const char* what
 struct MergeTables {
   int table_size = 0;
   std::vector<float> num;                 // [frame][channel][code]
-  std::vector<float> den;                 // [channel][code]
+  std::vector<float> den;                 // [frame][channel][code]
   std::vector<float> fallback_saturated;  // [image channel]: inverse(max) / t_shortest
   std::vector<float> fallback_black;      // [image channel]: inverse(0) / t_longest
   const float* num_of(size_t frame, int c) const {
     return num.data() + (frame * 3 + static_cast<size_t>(c)) * static_cast<size_t>(table_size);
   }
-  const float* den_of(int c) const { return den.data() + static_cast<size_t>(c) * static_cast<size_t>(table_size); }
+  const float* den_of(size_t frame, int c) const {
+    return den.data() + (frame * 3 + static_cast<size_t>(c)) * static_cast<size_t>(table_size);
+  }
 };
 
 template <typename T>
@@ -68,9 +70,9 @@ void merge_rows(const std::vector<const cv::Mat*>& images, const MergeTables& ta
       const float* n0 = tab.num_of(j, 0);
       const float* n1 = tab.num_of(j, 1);
       const float* n2 = tab.num_of(j, 2);
-      const float* d0 = tab.den_of(0);
-      const float* d1 = tab.den_of(1);
-      const float* d2 = tab.den_of(2);
+      const float* d0 = tab.den_of(j, 0);
+      const float* d1 = tab.den_of(j, 1);
+      const float* d2 = tab.den_of(j, 2);
       for (size_t i = 0; i < n; i += 3) {
         const T z0 = p[i], z1 = p[i + 1], z2 = p[i + 2];
         num[i] += n0[z0];
@@ -173,7 +175,7 @@ Result<HdrImage> merge_hdr(std::span<const Frame> frames, const ResponseCurve& r
   tab.table_size = is8 ? 256 : 65536;
   const size_t ts = static_cast<size_t>(tab.table_size);
   tab.num.assign(frames.size() * 3 * ts, 0.0f);
-  tab.den.assign(3 * ts, 0.0f);
+  tab.den.assign(frames.size() * 3 * ts, 0.0f);
   size_t shortest = 0, longest = 0;
   std::vector<double> t(frames.size());
   for (size_t j = 0; j < frames.size(); ++j) {
@@ -186,10 +188,12 @@ Result<HdrImage> merge_hdr(std::span<const Frame> frames, const ResponseCurve& r
     for (size_t z = 0; z < ts; ++z) {
       const int code = static_cast<int>(z);
       const float w = hdr_hat_weight(code, max_code);
-      tab.den[static_cast<size_t>(c) * ts + z] = w;
       const double x = inv[static_cast<size_t>(std::min(code, max_code))];
-      for (size_t j = 0; j < frames.size(); ++j)
+      for (size_t j = 0; j < frames.size(); ++j) {
+        // The same weight for every frame; stored per frame so the inner loop reads one table pair per frame.
+        tab.den[(j * 3 + static_cast<size_t>(c)) * ts + z] = w;
         tab.num[(j * 3 + static_cast<size_t>(c)) * ts + z] = static_cast<float>(w * x / t[j]);
+      }
     }
     tab.fallback_saturated.push_back(static_cast<float>(inv[static_cast<size_t>(max_code)] / t[shortest]));
     tab.fallback_black.push_back(static_cast<float>(inv[0] / t[longest]));

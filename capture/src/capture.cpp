@@ -43,7 +43,9 @@ Result<uint64_t> free_disk_bytes(const std::filesystem::path& path) {
 
 namespace {
 
-bool retryable(ErrorCode c) { return c == ErrorCode::kDevice || c == ErrorCode::kTimeout || c == ErrorCode::kDisconnected; }
+bool retryable(ErrorCode c) {
+  return c == ErrorCode::kDevice || c == ErrorCode::kTimeout || c == ErrorCode::kDisconnected;
+}
 
 /// Runs `op` (returning Status or Result<T>) under the retry policy.
 template <typename Op>
@@ -56,8 +58,8 @@ auto with_retry(const RetryPolicy& policy, const char* what, Op op) -> decltype(
         log::get("capture")->error("{} failed {} times, giving up: {}", what, attempt, r.error().describe());
       return r;
     }
-    log::get("capture")->warn("{} failed (attempt {}/{}): {}; retrying in {:.3f} s", what, attempt,
-                              policy.max_attempts, r.error().describe(), backoff_s);
+    log::get("capture")->warn("{} failed (attempt {}/{}): {}; retrying in {:.3f} s", what, attempt, policy.max_attempts,
+                              r.error().describe(), backoff_s);
     std::this_thread::sleep_for(std::chrono::duration<double>(backoff_s));
     backoff_s = std::min(policy.max_backoff_s, backoff_s * 2.0);
   }
@@ -87,8 +89,8 @@ Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& option
     bracket.floor_s = std::clamp(bracket.floor_s, info->min_exposure_s, bracket.ceiling_s);
   }
   // Worst case for one view: every frame as an uncompressed image.
-  const uint64_t bytes_per_frame = static_cast<uint64_t>(std::max(info->width, 1)) * std::max(info->height, 1) * 3 *
-                                   (info->bits > 8 ? 2 : 1);
+  const uint64_t bytes_per_frame =
+      static_cast<uint64_t>(std::max(info->width, 1)) * std::max(info->height, 1) * 3 * (info->bits > 8 ? 2 : 1);
   const uint64_t view_bytes = bytes_per_frame * static_cast<uint64_t>(bracket.max_frames()) + 4096;
 
   const auto start = std::chrono::steady_clock::now();
@@ -165,7 +167,8 @@ Status run_session(rig::Rig& rig, Session& session, const CaptureOptions& option
     if (!p) log::get("capture")->warn("parking the axes failed: {}", p.describe());
   }
   if (!s) {
-    (void)session.append_event({{"event", "stopped"}, {"code", to_string(s.error().code)}, {"message", s.error().message}});
+    (void)session.append_event(
+        {{"event", "stopped"}, {"code", to_string(s.error().code)}, {"message", s.error().message}});
   }
   return s;
 }

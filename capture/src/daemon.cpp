@@ -36,8 +36,8 @@ bool valid_session_name(const std::string& name, std::string* why) {
   if (name.empty() || name.size() > 64) return fail("session name must be 1..64 characters");
   if (name[0] == '.') return fail("session name must not start with '.'");
   for (char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
-                    c == '_' || c == '-';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
     if (!ok) return fail("session name may hold only A-Z a-z 0-9 . _ -");
   }
   return true;
@@ -71,10 +71,14 @@ bool valid_utf8(const std::string& s) {
     }
     int len = 0;
     uint32_t cp = 0;
-    if (c >= 0xC2 && c <= 0xDF) len = 2, cp = c & 0x1F;
-    else if (c >= 0xE0 && c <= 0xEF) len = 3, cp = c & 0x0F;
-    else if (c >= 0xF0 && c <= 0xF4) len = 4, cp = c & 0x07;
-    else return false;
+    if (c >= 0xC2 && c <= 0xDF)
+      len = 2, cp = c & 0x1F;
+    else if (c >= 0xE0 && c <= 0xEF)
+      len = 3, cp = c & 0x0F;
+    else if (c >= 0xF0 && c <= 0xF4)
+      len = 4, cp = c & 0x07;
+    else
+      return false;
     if (i + len > n) return false;
     for (int k = 1; k < len; ++k) {
       const unsigned char cc = static_cast<unsigned char>(s[i + k]);
@@ -93,12 +97,18 @@ std::string dump_line(const json& j) { return j.dump(-1, ' ', false, json::error
 enum class RunState { kIdle, kRunning, kPaused, kCompleted, kFailed, kAborted };
 const char* state_name(RunState s) {
   switch (s) {
-    case RunState::kIdle: return "idle";
-    case RunState::kRunning: return "running";
-    case RunState::kPaused: return "paused";
-    case RunState::kCompleted: return "completed";
-    case RunState::kFailed: return "failed";
-    case RunState::kAborted: return "aborted";
+    case RunState::kIdle:
+      return "idle";
+    case RunState::kRunning:
+      return "running";
+    case RunState::kPaused:
+      return "paused";
+    case RunState::kCompleted:
+      return "completed";
+    case RunState::kFailed:
+      return "failed";
+    case RunState::kAborted:
+      return "aborted";
   }
   return "unknown";
 }
@@ -222,9 +232,11 @@ struct Daemon::Impl {
       ucred cred{};
       socklen_t len = sizeof cred;
       const bool known = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
-      const bool allowed = known && (cred.uid == config.allowed_uid || (config.allowed_gid && cred.gid == *config.allowed_gid));
+      const bool allowed =
+          known && (cred.uid == config.allowed_uid || (config.allowed_gid && cred.gid == *config.allowed_gid));
       if (!allowed || static_cast<int>(clients.size()) >= config.max_clients) {
-        const std::string reply = dump_line({{"ok", false}, {"code", allowed ? "busy" : "permission_denied"},
+        const std::string reply = dump_line({{"ok", false},
+                                             {"code", allowed ? "busy" : "permission_denied"},
                                              {"error", allowed ? "too many clients" : "peer not allowed"}});
         [[maybe_unused]] const ssize_t n = ::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL);
         logger->warn("refused connection from uid {} gid {}", known ? static_cast<long>(cred.uid) : -1L,
@@ -260,7 +272,8 @@ struct Daemon::Impl {
   }
 
   void too_long(Client& c) {
-    send(c, {{"ok", false}, {"code", "too_long"},
+    send(c, {{"ok", false},
+             {"code", "too_long"},
              {"error", "request longer than " + std::to_string(config.max_line_bytes) + " bytes; closing"}});
     c.in.clear();
     c.closing = true;
@@ -289,8 +302,10 @@ struct Daemon::Impl {
       if (request.is_discarded()) throw RequestError{"bad_request", "request is not valid JSON"};
       if (!request.is_object()) throw RequestError{"bad_request", "request must be a JSON object"};
       if (request.contains("id")) {
-        if (request["id"].is_string() || request["id"].is_number_integer()) id = request["id"];
-        else throw RequestError{"bad_request", "\"id\" must be a string or an integer"};
+        if (request["id"].is_string() || request["id"].is_number_integer())
+          id = request["id"];
+        else
+          throw RequestError{"bad_request", "\"id\" must be a string or an integer"};
       }
       if (!request.contains("cmd") || !request["cmd"].is_string())
         throw RequestError{"bad_request", "request needs a string \"cmd\""};
@@ -370,8 +385,10 @@ struct Daemon::Impl {
       return list_sessions();
     }
     if (cmd == "home" || cmd == "move") {
-      if (cmd == "home") check_keys(r, {});
-      else check_keys(r, {"pan_deg", "tilt_deg"});
+      if (cmd == "home")
+        check_keys(r, {});
+      else
+        check_keys(r, {"pan_deg", "tilt_deg"});
       if (running()) throw RequestError{"busy", "a session is running; pause or abort it first"};
       join_worker();
       throw_status(ensure_rig(config.rig_config, false));
@@ -437,7 +454,8 @@ struct Daemon::Impl {
     }
     if (r.contains("scene")) {
       const std::string scene = get_string(r, "scene", "");
-      if (!rc.contains("sim") || !rc["sim"].is_object()) throw RequestError{"invalid_argument", "\"scene\" needs a sim rig"};
+      if (!rc.contains("sim") || !rc["sim"].is_object())
+        throw RequestError{"invalid_argument", "\"scene\" needs a sim rig"};
       rc["sim"]["scene"] = scene;
     }
     throw_status(ensure_rig(rc, true));
@@ -452,7 +470,8 @@ struct Daemon::Impl {
     auto session = Session::create(dir, manifest.value());
     if (!session) throw_status(session.status());
     launch(std::move(session.value()), name);
-    return {{"session", name}, {"views_total", manifest->views.size()},
+    return {{"session", name},
+            {"views_total", manifest->views.size()},
             {"route", manifest->extra.value("route", json::object())}};
   }
 
@@ -527,16 +546,24 @@ struct Daemon::Impl {
     worker_stop = false;
     CaptureOptions options = config.capture;
     auto bracket = parse_bracket(session.manifest().bracket);
-    if (bracket) options.bracket = bracket.value();
-    else options.exposures_s = session.manifest().exposures_s;
+    if (bracket)
+      options.bracket = bracket.value();
+    else
+      options.exposures_s = session.manifest().exposures_s;
     options.stop_requested = &worker_stop;
     options.on_progress = [this, name](const CaptureProgress& p) {
       std::lock_guard lock(mutex);
       progress = p;
-      events.push_back({{"event", "progress"}, {"session", name}, {"views_done", p.views_done},
-                        {"views_total", p.views_total}, {"view", p.view}, {"bracket_index", p.bracket_index},
-                        {"exposure_s", p.exposure_s}, {"view_finished", p.view_finished},
-                        {"elapsed_s", p.elapsed_s}, {"eta_s", p.eta_s}});
+      events.push_back({{"event", "progress"},
+                        {"session", name},
+                        {"views_done", p.views_done},
+                        {"views_total", p.views_total},
+                        {"view", p.view},
+                        {"bracket_index", p.bracket_index},
+                        {"exposure_s", p.exposure_s},
+                        {"view_finished", p.view_finished},
+                        {"elapsed_s", p.elapsed_s},
+                        {"eta_s", p.eta_s}});
       wake();
     };
     worker = std::thread([this, s = std::move(session), options, name]() mutable {
@@ -548,10 +575,12 @@ struct Daemon::Impl {
       }
       {
         std::lock_guard lock(mutex);
-        if (result) state = RunState::kCompleted;
+        if (result)
+          state = RunState::kCompleted;
         else if (result.error().code == ErrorCode::kCancelled)
           state = intent == StopIntent::kAbort ? RunState::kAborted : RunState::kPaused;
-        else state = RunState::kFailed;
+        else
+          state = RunState::kFailed;
         if (!result) {
           last_error = result.error().message;
           last_error_code = to_string(result.error().code);

@@ -52,12 +52,9 @@ Result<Manifest> plan_manifest(const PlanRequest& req) {
     m.views.push_back({static_cast<int>(m.views.size()), t.direction, t.pan_tilt});
     scheme_index.push_back(t.index);
   }
-  m.extra["route"] = {{"planned_time_s", route.planned_time_s},
-                      {"naive_time_s", route.naive_time_s},
-                      {"used_naive_order", route.used_naive_order},
-                      {"passes", route.passes},
-                      {"unreachable", plan.unreachable.size()},
-                      {"scheme_index", scheme_index}};
+  m.extra["route"] = {{"planned_time_s", route.planned_time_s},     {"naive_time_s", route.naive_time_s},
+                      {"used_naive_order", route.used_naive_order}, {"passes", route.passes},
+                      {"unreachable", plan.unreachable.size()},     {"scheme_index", scheme_index}};
   return m;
 }
 

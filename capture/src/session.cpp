@@ -21,7 +21,9 @@ std::string software_version() { return "vdrig 0.1.0"; }
 
 namespace {
 
-json pan_tilt_json(const PanTilt& p) { return {{"pan_deg", rad_to_deg(p.pan_rad)}, {"tilt_deg", rad_to_deg(p.tilt_rad)}}; }
+json pan_tilt_json(const PanTilt& p) {
+  return {{"pan_deg", rad_to_deg(p.pan_rad)}, {"tilt_deg", rad_to_deg(p.tilt_rad)}};
+}
 PanTilt pan_tilt_from(const json& j) {
   return {deg_to_rad(j.at("pan_deg").get<double>()), deg_to_rad(j.at("tilt_deg").get<double>())};
 }
@@ -67,7 +69,8 @@ Result<Manifest> Manifest::from_json(const json& j) {
     Manifest m;
     m.format_version = j.at("format_version").get<int>();
     if (m.format_version != kSessionFormatVersion)
-      return make_error(ErrorCode::kCorrupt, "manifest: unsupported format_version " + std::to_string(m.format_version));
+      return make_error(ErrorCode::kCorrupt,
+                        "manifest: unsupported format_version " + std::to_string(m.format_version));
     m.software_version = j.value("software_version", "");
     m.created_utc = j.value("created_utc", "");
     m.rig_config = j.value("rig_config", json::object());
@@ -95,12 +98,18 @@ Result<Manifest> Manifest::from_json(const json& j) {
 }
 
 json FrameRecord::to_json() const {
-  return {{"type", "frame"},         {"view", view},
-          {"bracket", bracket_index}, {"file", file},
-          {"exposure_s", exposure_s}, {"gain", gain},
-          {"bits", bits},             {"commanded", pan_tilt_json(commanded)},
-          {"measured", pan_tilt_json(measured)}, {"timestamp_ns", timestamp_ns},
-          {"sequence", sequence},     {"saturated", saturated}};
+  return {{"type", "frame"},
+          {"view", view},
+          {"bracket", bracket_index},
+          {"file", file},
+          {"exposure_s", exposure_s},
+          {"gain", gain},
+          {"bits", bits},
+          {"commanded", pan_tilt_json(commanded)},
+          {"measured", pan_tilt_json(measured)},
+          {"timestamp_ns", timestamp_ns},
+          {"sequence", sequence},
+          {"saturated", saturated}};
 }
 
 Result<FrameRecord> FrameRecord::from_json(const json& j) {
@@ -182,7 +191,8 @@ Result<Session> Session::open(const fs::path& dir) {
     const std::string type = j.value("type", "");
     if (type == "frame") {
       auto r = FrameRecord::from_json(j);
-      if (!r) return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + ": " + r.error().message);
+      if (!r)
+        return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + ": " + r.error().message);
       s.frames_.push_back(r.value());
     } else if (type == "view_complete") {
       s.complete_views_[j.value("view", -1)] = j.value("frames", -1);
@@ -220,7 +230,8 @@ Status Session::append_journal(const json& line) {
   ::close(fd);
   if (n != static_cast<ssize_t>(text.size())) {
     const bool full = write_errno == ENOSPC || write_errno == EDQUOT;
-    return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo, "append to journal: " + std::string(std::strerror(write_errno)));
+    return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo,
+                      "append to journal: " + std::string(std::strerror(write_errno)));
   }
   if (rc != 0) return make_error(ErrorCode::kIo, "fsync journal: " + std::string(std::strerror(sync_errno)));
   return Status::ok();

@@ -53,7 +53,8 @@ Result<CameraModel> CameraModel::load_yaml(const std::filesystem::path& path) {
     cv::Mat K, D;
     fs["camera_matrix"] >> K;
     fs["distortion_coefficients"] >> D;
-    if (K.rows != 3 || K.cols != 3) return make_error(ErrorCode::kCorrupt, path.string() + ": camera_matrix is not 3x3");
+    if (K.rows != 3 || K.cols != 3)
+      return make_error(ErrorCode::kCorrupt, path.string() + ": camera_matrix is not 3x3");
     CameraModel m;
     fs["image_width"] >> m.width;
     fs["image_height"] >> m.height;

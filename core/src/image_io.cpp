@@ -1,15 +1,15 @@
 #include "vdrig/core/image_io.hpp"
 
 #include <ImfChannelList.h>
+#include <ImfDoubleAttribute.h>
+#include <ImfFloatAttribute.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
-#include <ImfDoubleAttribute.h>
-#include <ImfFloatAttribute.h>
-#include <ImfIntAttribute.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -101,7 +101,8 @@ Status write_file_atomic(const fs::path& path, const std::string& bytes) {
 }
 
 Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type) {
-  if (image.channels.empty()) return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());
+  if (image.channels.empty())
+    return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());
   const fs::path tmp = temp_sibling(path);
   try {
     Imf::Header header(image.width, image.height);
@@ -126,8 +127,8 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
         continue;
       }
       fb.insert(image.channel_names[i],
-                Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(c.ptr<float>())),
-                           sizeof(float), c.step[0]));
+                Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(c.ptr<float>())), sizeof(float),
+                           c.step[0]));
     }
     {
       Imf::OutputFile out(tmp.c_str(), header);

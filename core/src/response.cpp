@@ -30,8 +30,14 @@ ResponseCurve ResponseCurve::s_curve(int bits, double gamma, double contrast) {
     ch.resize(n);
     for (int k = 0; k < n; ++k) {
       const double y = static_cast<double>(k) / (n - 1);
-      if (k == 0) { ch[k] = 0.0; continue; }
-      if (k == n - 1) { ch[k] = 1.0; continue; }
+      if (k == 0) {
+        ch[k] = 0.0;
+        continue;
+      }
+      if (k == n - 1) {
+        ch[k] = 1.0;
+        continue;
+      }
       const double q = std::pow(y / (1.0 - y), 1.0 / contrast);
       ch[k] = std::pow(q / (1.0 + q), gamma);
     }

@@ -45,8 +45,9 @@ Result<ModelDescriptor> ModelDescriptor::parse(const std::string& spec) {
   m.kind = spec.substr(0, colon);
   const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
   auto bad = [&](const std::string& why) {
-    return make_error(ErrorCode::kInvalidArgument, "model \"" + spec + "\": " + why +
-                                                       " (expected phong:K|phong:auto|sh-zh:N|sh-lsop:N|sh-ls:N|hsh:N)");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "model \"" + spec + "\": " + why + " (expected phong:K|phong:auto|sh-zh:N|sh-lsop:N|sh-ls:N|hsh:N)");
   };
   try {
     if (m.kind == "phong") {
@@ -69,8 +70,9 @@ Result<ModelDescriptor> ModelDescriptor::parse(const std::string& spec) {
 }
 
 std::string ModelDescriptor::to_string() const {
-  if (kind == "phong") return "phong:" + (lobes == 0 ? std::string("auto") : std::to_string(lobes)) +
-                              (shared_shininess ? "" : ":per-lobe-m");
+  if (kind == "phong")
+    return "phong:" + (lobes == 0 ? std::string("auto") : std::to_string(lobes)) +
+           (shared_shininess ? "" : ":per-lobe-m");
   return kind + ":" + std::to_string(bands);
 }
 
@@ -101,7 +103,8 @@ float ParameterMap::at(const std::string& channel, int s, int t) const {
 }
 
 void ParameterMap::set_phong(int s, int t, const PhongParams& p) {
-  VDRIG_CHECK(model_.kind == "phong" && static_cast<int>(p.lobes.size()) <= model_.lobes, "Phong lobes exceed the map's");
+  VDRIG_CHECK(model_.kind == "phong" && static_cast<int>(p.lobes.size()) <= model_.lobes,
+              "Phong lobes exceed the map's");
   for (int c = 0; c < 3; ++c) at(std::string("kd.") + kRgb[c], s, t) = static_cast<float>(p.kd[c]);
   for (int k = 0; k < model_.lobes; ++k) {
     // A texel that needs fewer lobes than the map stores has zero energy in the rest.

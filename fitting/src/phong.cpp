@@ -169,10 +169,11 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
   auto* functor = new Cost{&obs, std::vector<double>(3 * obs.size(), 1.0)};
   if (opt.residual == ResidualMode::kRelative)
     for (size_t i = 0; i < obs.size(); ++i)
-      for (int c = 0; c < 3; ++c) functor->weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
+      for (int c = 0; c < 3; ++c)
+        functor->weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
   ceres::Problem problem;
-  auto* cost = new ceres::AutoDiffCostFunction<Cost, ceres::DYNAMIC, Cost::kParams>(functor,
-                                                                                     static_cast<int>(3 * obs.size()));
+  auto* cost =
+      new ceres::AutoDiffCostFunction<Cost, ceres::DYNAMIC, Cost::kParams>(functor, static_cast<int>(3 * obs.size()));
   problem.AddResidualBlock(cost, nullptr, p.data());
   for (int c = 0; c < 3; ++c) problem.SetParameterLowerBound(p.data(), c, 0.0);
   for (int k = 0; k < K; ++k) {
@@ -235,10 +236,18 @@ PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
     if (opt.shared_shininess)
       for (auto& l : init.lobes) l.shininess = init.lobes.front().shininess;
     switch (k) {
-      case 1: fit = solve_k<1>(obs, opt, init); break;
-      case 2: fit = solve_k<2>(obs, opt, init); break;
-      case 3: fit = solve_k<3>(obs, opt, init); break;
-      default: fit = solve_k<4>(obs, opt, init); break;
+      case 1:
+        fit = solve_k<1>(obs, opt, init);
+        break;
+      case 2:
+        fit = solve_k<2>(obs, opt, init);
+        break;
+      case 3:
+        fit = solve_k<3>(obs, opt, init);
+        break;
+      default:
+        fit = solve_k<4>(obs, opt, init);
+        break;
     }
     init = fit.params;
   }

@@ -39,8 +39,8 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   const auto plan = capture::plan_targets(geometry, rig->stage->spec(), samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);
-    logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits",
-                 u.index, rad_to_deg(s.azimuth_rad), rad_to_deg(s.zenith_rad));
+    logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits", u.index,
+                 rad_to_deg(s.azimuth_rad), rad_to_deg(s.zenith_rad));
   }
   capture::Manifest manifest;
   manifest.rig_config = req.rig_config;
@@ -133,7 +133,8 @@ Status merge_session_hdr(const capture::Session& session) {
       }
       if (!status) {
         std::lock_guard lock(error_mutex);
-        if (first_error) first_error = make_error(status.error().code, "view " + std::to_string(v) + ": " + status.error().message);
+        if (first_error)
+          first_error = make_error(status.error().code, "view " + std::to_string(v) + ": " + status.error().message);
       }
     }
   };

@@ -19,7 +19,10 @@ class FakeStage : public rig::PanTiltStage {
     s.tilt = {-0.1, 1.5, 1.0, 2.0, false};
     return s;
   }
-  Status home() override { pos = {}; return Status::ok(); }
+  Status home() override {
+    pos = {};
+    return Status::ok();
+  }
   Status move_to(const PanTilt& t) override {
     if (fail_moves > 0) {
       --fail_moves;

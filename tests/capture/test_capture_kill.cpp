@@ -22,9 +22,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 json small_sim_config() {
-  return sim::sim_rig_config({{"scene", "patchwork"},
-                              {"samples_per_axis", 1},
-                              {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
+  return sim::sim_rig_config(
+      {{"scene", "patchwork"},
+       {"samples_per_axis", 1},
+       {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
 }
 
 Result<rig::Rig> make_rig(const json& config) {
@@ -130,8 +131,10 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
       ::kill(pid, SIGKILL);
       ::waitpid(pid, &status, 0);
     }
-    if (WIFSIGNALED(status)) ++killed_mid_run;
-    else ASSERT_EQ(WEXITSTATUS(status), 0) << "child failed before the kill";
+    if (WIFSIGNALED(status))
+      ++killed_mid_run;
+    else
+      ASSERT_EQ(WEXITSTATUS(status), 0) << "child failed before the kill";
   }
   auto partial = Session::open(dir);
   ASSERT_TRUE(partial) << partial.error().describe();

@@ -21,9 +21,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 json small_sim_config() {
-  return sim::sim_rig_config({{"scene", "patchwork"},
-                              {"samples_per_axis", 1},
-                              {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
+  return sim::sim_rig_config(
+      {{"scene", "patchwork"},
+       {"samples_per_axis", 1},
+       {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
 }
 
 class DaemonFixture : public ::testing::Test {
@@ -120,29 +121,41 @@ std::string random_message(std::mt19937& rng, int kind) {
     }
     return s;
   };
-  static const char* cmds[] = {"start", "pause", "resume", "abort", "status", "subscribe", "home", "move", "list-sessions"};
+  static const char* cmds[] = {"start",     "pause", "resume", "abort",        "status",
+                               "subscribe", "home",  "move",   "list-sessions"};
   const std::string cmd = cmds[rng() % 9];
   switch (kind) {
-    case 0: return bytes(len(rng));                                   // random bytes
-    case 1: {                                                          // truncated JSON
+    case 0:
+      return bytes(len(rng));  // random bytes
+    case 1: {                  // truncated JSON
       const std::string full = json{{"cmd", cmd}, {"pan_deg", 10}, {"session", "abc"}}.dump();
       return full.substr(0, rng() % full.size());
     }
-    case 2: {                                                          // wrong types
-      static const char* wrong[] = {R"({"cmd":5})", R"({"cmd":null})", R"(["status"])", R"("status")", R"(42)",
+    case 2: {  // wrong types
+      static const char* wrong[] = {R"({"cmd":5})",
+                                    R"({"cmd":null})",
+                                    R"(["status"])",
+                                    R"("status")",
+                                    R"(42)",
                                     R"({"cmd":"move","pan_deg":"ten","tilt_deg":5})",
                                     R"({"cmd":"move","pan_deg":1e999,"tilt_deg":5})",
-                                    R"({"cmd":"start","session":["x"]})", R"({"cmd":"start","session":7})",
-                                    R"({"cmd":"start","session":"../../etc"})", R"({"cmd":"start","session":".hidden"})",
+                                    R"({"cmd":"start","session":["x"]})",
+                                    R"({"cmd":"start","session":7})",
+                                    R"({"cmd":"start","session":"../../etc"})",
+                                    R"({"cmd":"start","session":".hidden"})",
                                     R"({"cmd":"start","session":"ok","scheme":"nonsense:3"})",
                                     R"({"cmd":"start","session":"ok2","bracket":"fixed:1,1"})",
-                                    R"({"cmd":"status","id":[1]})", R"({"cmd":"status","extra":1})",
-                                    R"({"cmd":"resume","session":"no-such-session"})", R"({"cmd":"pause"})",
-                                    R"({"cmd":"abort"})", R"({"cmd":"move","pan_deg":9999,"tilt_deg":0})"};
+                                    R"({"cmd":"status","id":[1]})",
+                                    R"({"cmd":"status","extra":1})",
+                                    R"({"cmd":"resume","session":"no-such-session"})",
+                                    R"({"cmd":"pause"})",
+                                    R"({"cmd":"abort"})",
+                                    R"({"cmd":"move","pan_deg":9999,"tilt_deg":0})"};
       return wrong[rng() % (sizeof wrong / sizeof wrong[0])];
     }
-    case 3: return json{{"cmd", "x-" + std::to_string(rng() % 1000)}}.dump();  // unknown command
-    default: {                                                                   // invalid UTF-8 in a string
+    case 3:
+      return json{{"cmd", "x-" + std::to_string(rng() % 1000)}}.dump();  // unknown command
+    default: {                                                           // invalid UTF-8 in a string
       std::string s = R"({"cmd":"status","id":")";
       s += static_cast<char>(0xC3);
       s += static_cast<char>(0x28);
@@ -246,7 +259,8 @@ TEST_F(DaemonFixture, RunsASessionWithPauseResumeAbortAndMoves) {
   EXPECT_EQ(s1->completed_view_count(), total);
 
   // Pause / resume / abort on a larger session.
-  json s2 = request(fd, buf, {{"cmd", "start"}, {"session", "s2"}, {"scheme", "spiral:60:4@80"}, {"bracket", "fixed:0.5,0.1"}});
+  json s2 = request(fd, buf,
+                    {{"cmd", "start"}, {"session", "s2"}, {"scheme", "spiral:60:4@80"}, {"bracket", "fixed:0.5,0.1"}});
   ASSERT_TRUE(s2.value("ok", false)) << s2.dump();
   json busy = request(fd, buf, {{"cmd", "move"}, {"pan_deg", 0}, {"tilt_deg", 0}});
   EXPECT_EQ(busy.value("code", ""), "busy");

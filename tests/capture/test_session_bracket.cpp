@@ -69,9 +69,9 @@ TEST(BracketSpec, ParsesAutoWithLimitsAndRoi) {
   ASSERT_TRUE(round);
   EXPECT_DOUBLE_EQ(round->floor_s, 0.25);
   EXPECT_EQ(round->roi->height, 40);
-  EXPECT_FALSE(parse_bracket("auto:0.1:1"));        // floor above ceiling
+  EXPECT_FALSE(parse_bracket("auto:0.1:1"));  // floor above ceiling
   EXPECT_FALSE(parse_bracket("auto:-1"));
-  EXPECT_FALSE(parse_bracket("auto@1,2,0,4"));      // empty ROI
+  EXPECT_FALSE(parse_bracket("auto@1,2,0,4"));  // empty ROI
   EXPECT_FALSE(parse_bracket("auto@1,2,3"));
   EXPECT_FALSE(parse_bracket("auto:1:0.5:0.1"));
 }
@@ -111,8 +111,8 @@ TEST(AutoBracket, RegionOfInterestAndFloor) {
   ASSERT_TRUE(session);
   FakeCamera* camera = nullptr;
   rig::Rig rig = testing::make_fake_rig(nullptr, &camera);
-  camera->dim = 100;      // never saturates in [0, 1] s
-  camera->bright = 1e6;   // saturates down to 0.255 ms
+  camera->dim = 100;     // never saturates in [0, 1] s
+  camera->bright = 1e6;  // saturates down to 0.255 ms
   CaptureOptions o;
   o.disk_reserve_bytes = 0;
   o.bracket = parse_bracket("auto:1:0.1@10,10,10,10").value();  // ROI avoids the hot corner: one frame
@@ -178,7 +178,7 @@ TEST(Capture, RetriesTransientFaultsThenStopsWithTheFault) {
   EXPECT_TRUE(session->view_complete(0));
   EXPECT_FALSE(session->view_complete(1));  // one frame of view 1 journaled, the view is not done
   EXPECT_EQ(session->frames_of_view(1).size(), 1u);
-  EXPECT_EQ(camera->attempts, 2 + 3 + 3);   // 2 faults + 3 good, then 3 failing attempts
+  EXPECT_EQ(camera->attempts, 2 + 3 + 3);  // 2 faults + 3 good, then 3 failing attempts
 
   camera->fail_captures = 0;
   auto reopened = Session::open(dir);

@@ -15,10 +15,12 @@ TexelObservations observe(const sim::Scene& scene, const Vec3d& p, double distan
   rig::RigGeometry geometry;
   geometry.camera_distance_mm = distance_mm;
   for (double zen = 0; zen <= 80.0 + 1e-9; zen += zenith_step_deg) {
-    const int count = zen == 0 ? 1 : std::max(1, static_cast<int>(std::round(360.0 / zenith_step_deg * std::sin(deg_to_rad(zen)))));
+    const int count =
+        zen == 0 ? 1 : std::max(1, static_cast<int>(std::round(360.0 / zenith_step_deg * std::sin(deg_to_rad(zen)))));
     for (int a = 0; a < count; ++a) {
       const Vec3d nominal = direction_from_spherical(2 * kPi * a / count, deg_to_rad(zen));
-      const ViewPose pose = rig::surface_pose(geometry, {kPi / 2 - spherical_from_direction(nominal).azimuth_rad, deg_to_rad(zen)});
+      const ViewPose pose =
+          rig::surface_pose(geometry, {kPi / 2 - spherical_from_direction(nominal).azimuth_rad, deg_to_rad(zen)});
       const Vec3d v = pose.view_direction(p);
       obs.direction.push_back(v.cast<float>());
       obs.radiance.push_back(scene.radiance(p, v).cast<float>());

@@ -35,7 +35,7 @@ TEST(Checkerboard, DetectedCornersMatchProjections) {
     ASSERT_EQ(found.size(), corners.size());
     for (const cv::Point2f& f : found) {
       double nearest = 1e9;
-      Vec2d dv;
+      Vec2d dv = Vec2d::Zero();
       for (const Vec3d& c : corners) {
         const Vec2d d = Vec2d(f.x, f.y) - cam.project(pose.to_camera(c));
         if (d.norm() < nearest) nearest = d.norm(), dv = d;

@@ -108,7 +108,8 @@ Result<std::string> model_glsl(const fitting::ParameterMap& map) {
   auto ch = [&](const std::string& name) { return std::to_string(img.find(name)); };
   if (m.kind == "phong") {
     std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
-    s += "  vec3 I = vec3(channel(" + ch("kd.R") + ", t), channel(" + ch("kd.G") + ", t), channel(" + ch("kd.B") + ", t));\n";
+    s += "  vec3 I = vec3(channel(" + ch("kd.R") + ", t), channel(" + ch("kd.G") + ", t), channel(" + ch("kd.B") +
+         ", t));\n";
     for (int k = 0; k < m.lobes; ++k) {
       const std::string K = std::to_string(k);
       const std::string mname = m.shared_shininess ? "m" : "m" + K;
@@ -183,7 +184,8 @@ Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::
   if (!model) return model.error();
   std::string log;
   const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, &log);
-  const GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model.value() + kFragmentTail, &log) : 0;
+  const GLuint fs =
+      vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model.value() + kFragmentTail, &log) : 0;
   if (!vs || !fs) return make_error(ErrorCode::kInternal, "shader compilation failed: " + log);
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
   r->program_ = glCreateProgram();
@@ -221,7 +223,8 @@ Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::
   }
   glGenTextures(1, &r->params_tex_);
   glBindTexture(GL_TEXTURE_2D_ARRAY, r->params_tex_);
-  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA32F, img.width, img.height, r->layers_, 0, GL_RGBA, GL_FLOAT, data.data());
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA32F, img.width, img.height, r->layers_, 0, GL_RGBA, GL_FLOAT,
+               data.data());
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   if (glGetError() != GL_NO_ERROR) return make_error(ErrorCode::kInternal, "uploading the parameter map failed");

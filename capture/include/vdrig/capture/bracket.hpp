@@ -26,9 +26,9 @@ struct RegionOfInterest {
 struct BracketSpec {
   enum class Kind { kFixed, kAuto };
   Kind kind = Kind::kFixed;
-  std::vector<double> exposures_s;  // kFixed: in capture order
-  double ceiling_s = 1.0;           // kAuto: first exposure
-  double floor_s = 1e-4;            // kAuto: never below this
+  std::vector<double> exposures_s;      // kFixed: in capture order
+  double ceiling_s = 1.0;               // kAuto: first exposure
+  double floor_s = 1e-4;                // kAuto: never below this
   std::optional<RegionOfInterest> roi;  // kAuto: where saturation is looked for (whole image when absent)
 
   /// Fixed: non-empty, every exposure finite and > 0, no duplicates. Auto: 0 < floor <= ceiling, finite, ROI of

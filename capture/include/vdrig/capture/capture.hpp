@@ -20,9 +20,9 @@ namespace vdrig::capture {
 struct CaptureProgress {
   int views_done = 0;
   int views_total = 0;
-  int view = -1;          // view in hand
-  int bracket_index = 0;  // frame of the bracket in hand
-  double exposure_s = 0;  // exposure of the frame just taken
+  int view = -1;               // view in hand
+  int bracket_index = 0;       // frame of the bracket in hand
+  double exposure_s = 0;       // exposure of the frame just taken
   bool view_finished = false;  // true for the report after a view is marked complete, false for per-frame reports
   double elapsed_s = 0.0;
   double eta_s = 0.0;
@@ -37,11 +37,11 @@ struct RetryPolicy {
 };
 
 struct CaptureOptions {
-  std::vector<double> exposures_s;    // fixed bracket (used when `bracket` is not set); distinct and > 0
+  std::vector<double> exposures_s;     // fixed bracket (used when `bracket` is not set); distinct and > 0
   std::optional<BracketSpec> bracket;  // takes precedence over exposures_s
   double gain = 1.0;
   std::function<void(const CaptureProgress&)> on_progress;  // after every frame and after every completed view
-  const std::atomic<bool>* stop_requested = nullptr;  // checked between frames: stop after the frame in hand
+  const std::atomic<bool>* stop_requested = nullptr;        // checked between frames: stop after the frame in hand
   /// Free space (bytes) that must remain on the session's file system after the next view's worst-case size; checked
   /// (statvfs) before each view. Below it the capture stops with kNoSpace before touching anything.
   uint64_t disk_reserve_bytes = 64ull << 20;

@@ -22,8 +22,8 @@
 namespace vdrig::capture {
 
 struct DaemonConfig {
-  std::filesystem::path runtime_dir;   // the socket is runtime_dir/vdrigd.sock (0660); created 0770 if missing
-  std::filesystem::path sessions_dir;  // sessions live in sessions_dir/NAME
+  std::filesystem::path runtime_dir;           // the socket is runtime_dir/vdrigd.sock (0660); created 0770 if missing
+  std::filesystem::path sessions_dir;          // sessions live in sessions_dir/NAME
   uid_t allowed_uid = static_cast<uid_t>(-1);  // -1: the daemon's own effective uid
   std::optional<gid_t> allowed_gid;            // peers with this primary gid are accepted too
   nlohmann::json rig_config;                   // rig used when `start` names none ("scene" overrides sim.scene)
@@ -31,7 +31,7 @@ struct DaemonConfig {
   std::function<Result<rig::Rig>(const nlohmann::json& rig_config)> make_rig;
   /// Optional: fills in what the rig config implies about the surface (size) before the manifest is written.
   std::function<void(Manifest& manifest)> describe_surface;
-  CaptureOptions capture;             // gain, disk reserve, retry policy (bracket comes from `start`)
+  CaptureOptions capture;                  // gain, disk reserve, retry policy (bracket comes from `start`)
   std::size_t max_line_bytes = 64 * 1024;  // longer requests: error reply, connection closed
   std::size_t max_output_bytes = 8 << 20;  // a client this far behind (not reading its events) is dropped
   int max_clients = 64;

@@ -38,9 +38,9 @@ struct Manifest {
   int format_version = kSessionFormatVersion;
   std::string software_version;
   std::string created_utc;
-  nlohmann::json rig_config;   // the rig config the session was started with
-  std::string scheme;          // e.g. "latlong:6"
-  std::string bracket;         // e.g. "fixed:0.01" or "auto"
+  nlohmann::json rig_config;        // the rig config the session was started with
+  std::string scheme;               // e.g. "latlong:6"
+  std::string bracket;              // e.g. "fixed:0.01" or "auto"
   std::vector<double> exposures_s;  // for fixed brackets
   std::vector<PlannedView> views;
   double surface_width_mm = 1000.0;

@@ -18,11 +18,11 @@ struct Frame {
   cv::Mat image;
   double exposure_s = 0.0;
   double gain = 1.0;
-  int bits = 8;                // significant bits of a code (8, 10, 12, 16): saturation is (1 << bits) - 1
+  int bits = 8;  // significant bits of a code (8, 10, 12, 16): saturation is (1 << bits) - 1
   PanTilt commanded;
   PanTilt measured;
-  int64_t timestamp_ns = 0;    // CLOCK_REALTIME at exposure start
-  uint64_t sequence = 0;       // camera's frame counter; a gap means a dropped frame
+  int64_t timestamp_ns = 0;  // CLOCK_REALTIME at exposure start
+  uint64_t sequence = 0;     // camera's frame counter; a gap means a dropped frame
 };
 
 }  // namespace vdrig

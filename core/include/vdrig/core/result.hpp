@@ -15,17 +15,17 @@
 namespace vdrig {
 
 enum class ErrorCode {
-  kIo,             // file or stream failed (read, write, fsync, rename)
-  kCorrupt,        // a file exists but its content is not what its format says
-  kInvalidArgument,// a caller passed something out of contract (sizes, names, values)
-  kNotFound,       // a file, device, session or key that should exist does not
-  kDevice,         // hardware reported a fault (drive alarm, camera error)
-  kTimeout,        // a device did not answer or finish in time
-  kDisconnected,   // a device went away (unplugged camera, closed socket)
-  kNoSpace,        // disk full (or below the configured reserve)
-  kUnsupported,    // a backend or feature not built in / not available here
-  kCancelled,      // stopped on request (pause, abort, SIGTERM)
-  kInternal,       // a bug surfaced as a value where aborting would lose data
+  kIo,               // file or stream failed (read, write, fsync, rename)
+  kCorrupt,          // a file exists but its content is not what its format says
+  kInvalidArgument,  // a caller passed something out of contract (sizes, names, values)
+  kNotFound,         // a file, device, session or key that should exist does not
+  kDevice,           // hardware reported a fault (drive alarm, camera error)
+  kTimeout,          // a device did not answer or finish in time
+  kDisconnected,     // a device went away (unplugged camera, closed socket)
+  kNoSpace,          // disk full (or below the configured reserve)
+  kUnsupported,      // a backend or feature not built in / not available here
+  kCancelled,        // stopped on request (pause, abort, SIGTERM)
+  kInternal,         // a bug surfaced as a value where aborting would lose data
 };
 
 const char* to_string(ErrorCode code);
@@ -58,7 +58,7 @@ class [[nodiscard]] Status {
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : v_(std::move(value)) {}   // NOLINT: implicit by design
+  Result(T value) : v_(std::move(value)) {}      // NOLINT: implicit by design
   Result(Error error) : v_(std::move(error)) {}  // NOLINT: implicit by design
 
   bool is_ok() const { return std::holds_alternative<T>(v_); }
@@ -88,14 +88,14 @@ enum class Validation { kValid, kAdjusted, kInvalid };
 }  // namespace vdrig
 
 /// Invariant check: aborts with the expression, a message and the source location. Always on.
-#define VDRIG_CHECK(cond, msg)                                                          \
-  do {                                                                                  \
+#define VDRIG_CHECK(cond, msg)                                                         \
+  do {                                                                                 \
     if (!(cond)) ::vdrig::check_failed(#cond, (msg), std::source_location::current()); \
   } while (0)
 
 /// Propagates a failed Status/Result from the enclosing function.
-#define VDRIG_TRY(expr)                                      \
-  do {                                                       \
-    auto&& vdrig_try_status_ = (expr);                       \
+#define VDRIG_TRY(expr)                                       \
+  do {                                                        \
+    auto&& vdrig_try_status_ = (expr);                        \
     if (!vdrig_try_status_) return vdrig_try_status_.error(); \
   } while (0)

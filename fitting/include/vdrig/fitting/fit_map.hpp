@@ -17,9 +17,9 @@ struct MapFitProgress {
 
 struct MapFitOptions {
   ModelDescriptor model;
-  PhongFitOptions phong;          // lobes/shininess sharing taken from `model`
-  int threads = 0;                // 0 = hardware concurrency
-  int min_observations = 6;       // texels with fewer valid observations get zeros and n = their count
+  PhongFitOptions phong;     // lobes/shininess sharing taken from `model`
+  int threads = 0;           // 0 = hardware concurrency
+  int min_observations = 6;  // texels with fewer valid observations get zeros and n = their count
   std::function<void(const MapFitProgress&)> on_progress;  // called from worker threads, serialised
 };
 

@@ -17,11 +17,11 @@ namespace vdrig::fitting {
 
 enum ObservationFlag : uint8_t {
   kObsValid = 0,
-  kObsOutside = 1,    // projects outside the image (or behind the camera)
-  kObsBackFacing = 2, // the camera is below the surface's horizon
-  kObsClipped = 4,    // clipped in every exposure (HDR mask)
-  kObsExcluded = 8,   // the view was excluded by calibration
-  kObsOccluded = 16,  // covered by a marker or another known occluder
+  kObsOutside = 1,     // projects outside the image (or behind the camera)
+  kObsBackFacing = 2,  // the camera is below the surface's horizon
+  kObsClipped = 4,     // clipped in every exposure (HDR mask)
+  kObsExcluded = 8,    // the view was excluded by calibration
+  kObsOccluded = 16,   // covered by a marker or another known occluder
 };
 
 /// One view as the observation map consumes it: linear radiance (CV_32FC3, BGR), optional clip mask (CV_8UC1,
@@ -66,9 +66,7 @@ class ObservationMap {
   TexelObservations texel(int s, int t, const std::vector<int>& held_out = {}) const;
 
  private:
-  size_t index(int s, int t, int view) const {
-    return (static_cast<size_t>(t) * spec_.texels_s + s) * views_ + view;
-  }
+  size_t index(int s, int t, int view) const { return (static_cast<size_t>(t) * spec_.texels_s + s) * views_ + view; }
   ObservationMapSpec spec_;
   int views_;
   std::vector<float> radiance_;   // 3 per observation

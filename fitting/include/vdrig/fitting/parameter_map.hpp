@@ -24,7 +24,7 @@ struct ModelDescriptor {
   std::string kind = "phong";  // "phong", "sh-zh", "sh-lsop", "sh-ls", "hsh"
   int lobes = 1;               // Phong
   bool shared_shininess = true;
-  int bands = 0;               // SH / HSH: n bands, n^2 coefficients per channel
+  int bands = 0;  // SH / HSH: n bands, n^2 coefficients per channel
 
   /// Parses "phong:1", "phong:auto", "phong:2:per-lobe-m", "sh-zh:6", "sh-lsop:6", "sh-ls:6", "hsh:5".
   static Result<ModelDescriptor> parse(const std::string& spec);

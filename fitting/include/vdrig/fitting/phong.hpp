@@ -38,7 +38,7 @@ enum class ResidualMode {
 };
 
 struct PhongFitOptions {
-  int lobes = 1;              // 1..4
+  int lobes = 1;  // 1..4
   bool shared_shininess = true;
   double max_shininess = 10000.0;
   int max_iterations = 100;
@@ -50,8 +50,8 @@ struct PhongFitOptions {
 
 /// Fit quality per colour channel.
 struct FitQuality {
-  Vec3d rms = Vec3d::Zero();               // root mean square residual
-  Vec3d mean_percent = Vec3d::Zero();      // mean of |residual| / observed * 100 over samples with observed > 0
+  Vec3d rms = Vec3d::Zero();           // root mean square residual
+  Vec3d mean_percent = Vec3d::Zero();  // mean of |residual| / observed * 100 over samples with observed > 0
   int samples = 0;
 };
 

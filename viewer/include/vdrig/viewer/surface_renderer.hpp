@@ -24,7 +24,8 @@ namespace vdrig::viewer {
 /// CI), or a visible one for the interactive viewer. One per thread.
 class GlContext {
  public:
-  static Result<std::unique_ptr<GlContext>> create(int width, int height, bool visible, const std::string& title = "vdrig");
+  static Result<std::unique_ptr<GlContext>> create(int width, int height, bool visible,
+                                                   const std::string& title = "vdrig");
   ~GlContext();
   GLFWwindow* window() const { return window_; }
   void make_current();

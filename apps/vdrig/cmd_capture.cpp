@@ -1,0 +1,101 @@
+// vdrig capture: plan and run a capture session, or resume an interrupted one (the journal is the truth).
+#include <cstdio>
+#include <fstream>
+
+#include "commands.hpp"
+#include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/plan.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/sim/scene.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+
+namespace vdrig::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct CaptureArgs {
+  std::string rig = "sim";  // "sim" or a rig config JSON file
+  std::string scene = "patchwork";
+  std::string scheme = "latlong:6";
+  std::string bracket = "auto";
+  std::string out;
+  std::string resume;
+  double reserve_mb = 256;
+};
+
+Status run(const CaptureArgs& a) {
+  auto registry = pipeline::full_registry();
+  capture::CaptureOptions options;
+  options.disk_reserve_bytes = static_cast<uint64_t>(std::max(0.0, a.reserve_mb) * 1024 * 1024);
+  std::optional<capture::Session> session;
+  if (!a.resume.empty()) {
+    auto s = capture::Session::open(a.resume);
+    if (!s) return s.error();
+    session = std::move(s.value());
+    std::printf("resuming %s: %d/%zu views complete\n", a.resume.c_str(), session->completed_view_count(),
+                session->manifest().views.size());
+  } else {
+    if (a.out.empty()) return make_error(ErrorCode::kInvalidArgument, "--out DIR or --resume DIR is required");
+    nlohmann::json rc;
+    if (a.rig == "sim") {
+      rc = sim::sim_rig_config({{"scene", a.scene}});
+    } else {
+      std::ifstream in(a.rig);
+      rc = nlohmann::json::parse(in, nullptr, false);
+      if (!in || rc.is_discarded()) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config " + a.rig);
+    }
+    auto rig = registry.make_rig(rc);
+    if (!rig) return rig.error();
+    capture::PlanRequest plan;
+    plan.rig_config = rc;
+    plan.scheme = a.scheme;
+    plan.bracket = a.bracket;
+    plan.stage = rig->stage->spec();
+    if (rc.contains("sim")) {
+      auto scene = sim::make_scene(rc["sim"].value("scene", "patchwork"));
+      if (!scene) return scene.error();
+      plan.surface_width_mm = scene->width_mm;
+      plan.surface_height_mm = scene->height_mm;
+    }
+    auto manifest = capture::plan_manifest(plan);
+    if (!manifest) return manifest.error();
+    const auto& route = manifest->extra["route"];
+    std::printf("%zu views; moves %.1f s planned vs %.1f s in scheme order\n", manifest->views.size(),
+                route["planned_time_s"].get<double>(), route["naive_time_s"].get<double>());
+    auto s = capture::Session::create(a.out, manifest.value());
+    if (!s) return s.error();
+    session = std::move(s.value());
+  }
+  auto bracket = capture::parse_bracket(session->manifest().bracket);
+  if (!bracket) return bracket.error();
+  options.bracket = bracket.value();
+  options.on_progress = [](const capture::CaptureProgress& p) {
+    std::printf("\r  views %d/%d  view %d frame %d (%.4g s)  ETA %.0f s   ", p.views_done, p.views_total, p.view,
+                p.bracket_index, p.exposure_s, p.eta_s);
+    std::fflush(stdout);
+  };
+  auto rig = registry.make_rig(session->manifest().rig_config);
+  if (!rig) return rig.error();
+  const Status s = capture::run_session(rig.value(), session.value(), options);
+  std::printf("\n");
+  if (!s && (s.error().code == ErrorCode::kNoSpace || s.error().code == ErrorCode::kCancelled))
+    std::printf("stopped; nothing is lost: vdrig capture --resume %s\n", session->dir().c_str());
+  return s;
+}
+
+CommandRegistrar reg([](CLI::App& root) {
+  auto a = std::make_shared<CaptureArgs>();
+  auto* cmd = root.add_subcommand("capture", "capture a session (or --resume an interrupted one)");
+  cmd->add_option("--rig", a->rig, "'sim' or a rig config JSON file")->capture_default_str();
+  cmd->add_option("--scene", a->scene, "simulator scene")->capture_default_str();
+  cmd->add_option("--scheme", a->scheme, "sampling scheme (docs/sampling.md)")->capture_default_str();
+  cmd->add_option("--bracket", a->bracket, "fixed:E1,E2,... or auto[:CEIL[:FLOOR]][@X,Y,W,H]")->capture_default_str();
+  cmd->add_option("--out", a->out, "new session folder");
+  cmd->add_option("--resume", a->resume, "session folder to resume (rig config from its manifest)");
+  cmd->add_option("--reserve-mb", a->reserve_mb, "free disk space to keep, MiB")->capture_default_str();
+  cmd->callback([a] { finish(run(*a)); });
+});
+
+}  // namespace
+}  // namespace vdrig::app
