@@ -29,19 +29,12 @@ ModbusAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, con
   a.unit = static_cast<int>(s.required_integer("unit", 1, 247));  // 0 is broadcast, 248..255 reserved
   a.counts_per_degree = s.required_number("counts_per_degree", -1e9, 1e9);
   if (s.has("counts_per_degree") && std::abs(a.counts_per_degree) < 1e-9) s.fail("\"counts_per_degree\" must not be 0");
-  const double min_deg = s.number("min_deg", -180.0, -1e6, 1e6);
-  const double max_deg = s.number("max_deg", 180.0, -1e6, 1e6);
-  if (min_deg >= max_deg) s.fail("\"min_deg\" must be below \"max_deg\"");
-  a.axis.min_rad = min_deg / kDegPerRad;
-  a.axis.max_rad = max_deg / kDegPerRad;
-  a.axis.max_speed_rad_s = s.number("max_speed_deg_s", 30.0, 1e-6, 1e6) / kDegPerRad;
-  a.axis.accel_rad_s2 = s.number("accel_deg_s2", 60.0, 1e-6, 1e7) / kDegPerRad;
-  a.axis.continuous = s.boolean("continuous", false);
+  a.axis = read_axis_spec(s);
   a.in_position_window_deg = s.number("in_position_window_deg", 0.05, 0.0, 10.0);
   s.reject_unknown({"unit", "counts_per_degree", "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2", "continuous",
                     "in_position_window_deg"});
   // A 32-bit counter must hold the whole travel.
-  const double max_counts = std::max(std::abs(min_deg), std::abs(max_deg)) * std::abs(a.counts_per_degree);
+  const double max_counts = std::max(std::abs(a.axis.min_rad), std::abs(a.axis.max_rad)) * kDegPerRad * std::abs(a.counts_per_degree);
   if (!a.axis.continuous && max_counts > 2147483647.0) s.fail("travel exceeds the 32-bit encoder range");
   parent.absorb(s);
   return a;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "vdrig/core/result.hpp"
+#include "vdrig/rig/devices.hpp"
 
 namespace vdrig::rig {
 
@@ -55,5 +56,9 @@ class Settings {
   std::string where_;
   std::vector<std::string> problems_;
 };
+
+/// Reads the motion keys every axis section shares: min_deg < max_deg (default -180..180), max_speed_deg_s (30),
+/// accel_deg_s2 (60), continuous (false); converted to radians.
+AxisSpec read_axis_spec(Settings& s);
 
 }  // namespace vdrig::rig

@@ -26,14 +26,7 @@ StepDirAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, co
   a.limit_active_low = s.boolean("limit_active_low", true);
   a.dir_invert = s.boolean("dir_invert", false);
   a.steps_per_rad = s.required_number("steps_per_degree", 1e-3, 1e7) * kDegPerRad;
-  const double min_deg = s.number("min_deg", -180.0, -1e5, 1e5);
-  const double max_deg = s.number("max_deg", 180.0, -1e5, 1e5);
-  if (min_deg >= max_deg) s.fail("\"min_deg\" must be below \"max_deg\"");
-  a.axis.min_rad = min_deg / kDegPerRad;
-  a.axis.max_rad = max_deg / kDegPerRad;
-  a.axis.max_speed_rad_s = s.number("max_speed_deg_s", 30.0, 1e-3, 1e5) / kDegPerRad;
-  a.axis.accel_rad_s2 = s.number("accel_deg_s2", 60.0, 1e-3, 1e6) / kDegPerRad;
-  a.axis.continuous = s.boolean("continuous", false);
+  a.axis = read_axis_spec(s);
   a.home_positive = s.string("home_direction", "negative", {"negative", "positive"}) == "positive";
   a.home_speed_rad_s = s.number("home_speed_deg_s", 5.0, 1e-3, 1e4) / kDegPerRad;
   a.home_max_travel_rad = s.number("home_max_travel_deg", 400.0, 1e-3, 1e5) / kDegPerRad;

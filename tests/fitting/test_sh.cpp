@@ -8,24 +8,15 @@
 #include <random>
 #include <vector>
 
+#include "hemisphere_support.hpp"
 #include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::fitting {
 namespace {
 
-// Roughly uniform directions on the upper hemisphere (Fibonacci spiral in cos zenith), jittered by `seed`.
-std::vector<Vec3d> fibonacci_hemisphere(int count, unsigned seed = 0) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
-  const double golden = kPi * (3.0 - std::sqrt(5.0));
-  std::vector<Vec3d> dirs;
-  for (int i = 0; i < count; ++i) {
-    const double z = 1.0 - (i + 0.5 + (seed ? jitter(rng) : 0.0)) / count;
-    const double r = std::sqrt(1.0 - z * z);
-    dirs.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
-  }
-  return dirs;
-}
+using test_support::fibonacci_hemisphere;
+using test_support::hemisphere_rms;
+using test_support::lobe;
 
 // A rig-like grid: pan and tilt in [-max, max] degrees, n x n directions.
 std::vector<Vec3d> pan_tilt_grid(int n, double max_deg) {
@@ -38,23 +29,6 @@ std::vector<Vec3d> pan_tilt_grid(int n, double max_deg) {
     }
   }
   return dirs;
-}
-
-// Phong-like lobe Kd + Ks max(0, v.r)^m.
-double lobe(const Vec3d& v, const Vec3d& r, double kd, double ks, double exponent) {
-  return kd + ks * std::pow(std::max(0.0, v.dot(r)), exponent);
-}
-
-// RMS over the upper hemisphere (area-weighted, by quadrature) of fitted(v) - truth(v).
-template <typename Fitted, typename Truth>
-double hemisphere_rms(const Fitted& fitted, const Truth& truth) {
-  static const HemisphereQuadrature quad = hemisphere_quadrature(48, 96);
-  double sum = 0.0;
-  for (std::size_t j = 0; j < quad.directions.size(); ++j) {
-    const double d = fitted(quad.directions[j]) - truth(quad.directions[j]);
-    sum += quad.weights[j] * d * d;
-  }
-  return std::sqrt(sum / (2.0 * kPi));
 }
 
 Eigen::MatrixXd sample(const std::vector<Vec3d>& dirs, const auto& f) {
