@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/rig/motion.hpp"
 
 namespace vdrig::sim {
 namespace {
@@ -20,14 +21,6 @@ Status reject_unknown(const json& j, const std::set<std::string>& known, const s
 }
 
 }  // namespace
-
-double trapezoid_time_s(double distance, double max_speed, double accel) {
-  distance = std::abs(distance);
-  if (distance == 0.0) return 0.0;
-  const double ramp = max_speed * max_speed / accel;  // distance to accelerate and decelerate fully
-  if (distance <= ramp) return 2.0 * std::sqrt(distance / accel);
-  return 2.0 * max_speed / accel + (distance - ramp) / max_speed;
-}
 
 bool SimFaults::any() const {
   return !move_timeout_at.empty() || !drive_error_at.empty() || !drop_frame_at.empty() ||
@@ -204,9 +197,7 @@ class SimStage final : public rig::PanTiltStage {
     const bool times_out = counted && contains(c.faults.move_timeout_at, call);
     PanTilt reached = target;
     if (times_out) reached = {(from.pan_rad + target.pan_rad) / 2.0, (from.tilt_rad + target.tilt_rad) / 2.0};
-    const double t =
-        std::max(trapezoid_time_s(reached.pan_rad - from.pan_rad, s.pan.max_speed_rad_s, s.pan.accel_rad_s2),
-                 trapezoid_time_s(reached.tilt_rad - from.tilt_rad, s.tilt.max_speed_rad_s, s.tilt.accel_rad_s2));
+    const double t = rig::move_time_s(s, from, reached);
     sleep_s(t * c.time_scale);
     std::lock_guard lock(world_->mutex);
     world_->position = reached;

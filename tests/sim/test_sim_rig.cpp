@@ -2,6 +2,8 @@
 // offset, injected faults, and that its frames are the renderer's.
 #include <gtest/gtest.h>
 
+#include "vdrig/rig/motion.hpp"
+
 #include <chrono>
 
 #include "vdrig/rig/kinematics.hpp"
@@ -55,6 +57,11 @@ TEST(SimConfig, ReadsKeysAndRejectsUnknownOnes) {
 }
 
 TEST(SimStage, TrapezoidTimes) {
+  // The stage's move model (rig/motion.hpp), in degree units here: 30 deg/s, 60 deg/s^2.
+  rig::AxisSpec axis;
+  axis.max_speed_rad_s = 30;
+  axis.accel_rad_s2 = 60;
+  const auto trapezoid_time_s = [&](double d, double, double) { return rig::axis_move_time_s(d, axis); };
   // 90 deg at 30 deg/s, 60 deg/s^2: 0.5 s ramps over 7.5 deg each, 75 deg cruising at 30 deg/s -> 3.5 s.
   EXPECT_NEAR(trapezoid_time_s(90, 30, 60), 3.5, 1e-12);
   // 10 deg never reaches full speed: triangular, 2 sqrt(10 / 60).

@@ -12,17 +12,13 @@
 
 #include "vdrig/core/frame.hpp"
 #include "vdrig/rig/devices.hpp"
+#include "vdrig/rig/motion.hpp"
 
 namespace vdrig::capture {
 
-/// Time (s) for one axis to travel |distance_rad| from rest to rest:
-///   d >= v^2 / a: d / v + v / a   (trapezoid: two ramps of v / a, cruise for the rest)
-///   d <  v^2 / a: 2 sqrt(d / a)   (triangle: never reaches v)
-double axis_move_time_s(double distance_rad, const rig::AxisSpec& axis);
-
-/// Time (s) of a move of both axes from `from` to `to`: the longer axis time. A continuous pan axis travels the
-/// shorter way round (|remainder(to - from, 2 pi)|).
-double move_time_s(const rig::StageSpec& spec, const PanTilt& from, const PanTilt& to);
+// The move model lives with the rig (rig/motion.hpp); capture uses it unchanged.
+using rig::axis_move_time_s;
+using rig::move_time_s;
 
 /// Total move time (s) from `start` through targets[order[0]], targets[order[1]], ...
 double route_time_s(const rig::StageSpec& spec, const PanTilt& start, std::span<const PanTilt> targets,

@@ -87,7 +87,4 @@ void register_backends(rig::BackendRegistry& registry);
 /// A rig config that selects the simulator for every device, with the given "sim" section.
 nlohmann::json sim_rig_config(const nlohmann::json& sim_section = nlohmann::json::object());
 
-/// Time of a trapezoidal-profile move of `distance` at `max_speed` and `accel` (triangular when too short).
-double trapezoid_time_s(double distance, double max_speed, double accel);
-
 }  // namespace vdrig::sim
