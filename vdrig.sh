@@ -2,7 +2,7 @@
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
 #   ./vdrig.sh test   set up, build, and pass the tests (Release, then again under ASan + UBSan)
-# Other verbs: build, bench, format-check. Options after the verb go to the demo (see: build/apps/vdrig demo --help).
+# Other verbs: build, bench, results (regenerates docs/results.md), format-check. Options after the verb go to the demo (see: build/apps/vdrig demo --help).
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -46,6 +46,11 @@ case "$verb" in
     setup
     configure_and_build release
     for b in build/release/bench/bench_*; do echo "== $b"; with_display "$b"; done
+    ;;
+  results)
+    setup
+    configure_and_build release
+    build/release/bench/bench_results_table docs/results.md
     ;;
   format-check)
     setup

@@ -1,7 +1,8 @@
 // Daemon overhead per frame: an in-process vdrigd runs a session over its socket on the simulator with a small
 // camera; every device call is timed by a wrapper, and the overhead is (session wall time - time inside device
-// calls) / frames. It covers everything vdrigd adds: PNG encoding, the atomic fsync'd write, the journal line, the
-// progress events and the socket. Target: < 5 ms per frame.
+// calls) / frames. It covers everything vdrigd adds: PNG encoding, the frame file and its fsync, the per-view commit
+// (one folder fsync, one journal append + fsync for the whole bracket), the progress events and the socket.
+// Target: < 5 ms per frame.
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>

@@ -1,4 +1,5 @@
-// `vdrig calib intrinsics|response` and `vdrig hdr merge`: calibration and HDR merging from image files.
+// `vdrig calib intrinsics|response|extrinsics`, `vdrig hdr merge` (image files) and `vdrig hdr SESSION` (every
+// bracket of a session).
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include "vdrig/calib/response_recovery.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -148,6 +150,49 @@ Status run_merge(const std::string& response_path, int bits, const std::vector<s
   return Status::ok();
 }
 
+Status run_extrinsics(const std::string& session_dir, const std::string& camera_path, double max_error_px) {
+  auto session = capture::Session::open(session_dir);
+  if (!session) return session.error();
+  pipeline::GeometryCalibrationOptions opt;
+  opt.max_error_px = max_error_px;
+  if (!camera_path.empty()) {
+    auto cam = CameraModel::load_yaml(camera_path);
+    if (!cam) return cam.error();
+    opt.camera = cam.value();
+  }
+  auto cal = pipeline::calibrate_session_geometry(session.value(), opt);
+  if (!cal) return cal.error();
+  std::printf("view  pan_deg  tilt_deg  error_px  status\n");
+  for (const auto& v : cal->views.views) {
+    std::printf("%4d  %7.2f  %8.2f  ", v.index, rad_to_deg(v.measured.pan_rad), rad_to_deg(v.measured.tilt_rad));
+    if (v.extrinsics)
+      std::printf("%8.4f  %s\n", v.extrinsics->reprojection_error_px, v.extrinsics->excluded ? "EXCLUDED" : "ok");
+    else
+      std::printf("%8s  %s\n", "-", v.error.c_str());
+  }
+  std::printf("%d of %zu views usable (max error %.3f px)\n", cal->usable_views, cal->views.views.size(), max_error_px);
+  if (cal->kinematics) {
+    const auto& k = *cal->kinematics;
+    const Vec3d& o = k.geometry.surface_offset_mm;
+    std::printf(
+        "rig: camera distance %.2f mm, surface offset (%.2f, %.2f, %.2f) mm; departure of the measured poses "
+        "from the model: rms %.3f mm, %.4f deg (max %.4f deg)\n",
+        k.geometry.camera_distance_mm, o.x(), o.y(), o.z(), k.rms_translation_mm, k.rms_rotation_deg,
+        k.max_rotation_deg);
+  }
+  std::printf("wrote %s and %s\n", (session->dir() / "calib" / "camera.yml").c_str(),
+              (session->dir() / "calib" / "views.json").c_str());
+  return Status::ok();
+}
+
+Status run_session_hdr(const std::string& session_dir) {
+  auto session = capture::Session::open(session_dir);
+  if (!session) return session.error();
+  VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
+  std::printf("merged %d views -> %s\n", session->completed_view_count(), (session->dir() / "hdr").c_str());
+  return Status::ok();
+}
+
 const CommandRegistrar registrar([](CLI::App& root) {
   auto* calib = root.add_subcommand("calib", "camera calibration: intrinsics from a chessboard, response curve");
   calib->require_subcommand(1);
@@ -189,8 +234,33 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->callback([a] { finish(run_response(a->bracket, a->out, a->opt)); });
   }
 
-  auto* hdr = root.add_subcommand("hdr", "high dynamic range merging");
-  hdr->require_subcommand(1);
+  {
+    auto* cmd = calib->add_subcommand(
+        "extrinsics", "per-view poses from the corner markers + rig kinematic fit -> SESSION/calib/views.json");
+    struct Args {
+      std::string session, camera;
+      double max_error_px = 1.0;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("session", a->session, "session folder")->required();
+    cmd->add_option("--camera", a->camera,
+                    "camera model YAML (vdrig calib intrinsics); default SESSION/calib/camera.yml, or the "
+                    "simulator's camera for a simulated session");
+    cmd->add_option("--max-error-px", a->max_error_px, "exclude views with a larger RMS reprojection error")
+        ->capture_default_str();
+    cmd->callback([a] { finish(run_extrinsics(a->session, a->camera, a->max_error_px)); });
+  }
+
+  // `vdrig hdr SESSION` merges a session (resumable: merged views are kept); `vdrig hdr merge ...` merges files.
+  auto* hdr = root.add_subcommand("hdr", "high dynamic range merging: `hdr SESSION` or `hdr merge IMAGE:T ...`");
+  hdr->require_subcommand(0, 1);
+  auto hdr_session = std::make_shared<std::string>();
+  hdr->add_option("session", *hdr_session, "session folder: merge every complete view into SESSION/hdr/");
+  hdr->callback([hdr, hdr_session] {
+    if (!hdr->get_subcommands().empty()) return;
+    if (hdr_session->empty()) finish(usage("hdr wants SESSION or the merge subcommand (see --help)"));
+    finish(run_session_hdr(*hdr_session));
+  });
   {
     auto* cmd = hdr->add_subcommand("merge", "merge a bracket to relative radiance (OpenEXR: R, G, B, mask)");
     struct Args {

@@ -1,6 +1,7 @@
 #include "vdrig/capture/session.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -8,6 +9,7 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "vdrig/core/image_io.hpp"
@@ -216,32 +218,92 @@ std::vector<FrameRecord> Session::frames_of_view(int view) const {
   return out;
 }
 
-Status Session::append_journal(const json& line) {
+namespace {
+
+ErrorCode io_code(int err) { return err == ENOSPC || err == EDQUOT ? ErrorCode::kNoSpace : ErrorCode::kIo; }
+
+/// Writes `bytes` to `path` (created or truncated) and starts its writeback without waiting for it, so the disk
+/// works while the next frame is being taken; durability comes later from fsync_path().
+Status write_frame_file(const fs::path& path, const std::vector<uchar>& bytes) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return make_error(io_code(errno), "create " + path.string() + ": " + std::strerror(errno));
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      return make_error(io_code(err), "write " + path.string() + ": " + std::strerror(err));
+    }
+    done += static_cast<size_t>(n);
+  }
+  // Only a hint (an error here resurfaces at fsync): queue the pages for writeback now.
+  (void)::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+  if (::close(fd) != 0) return make_error(io_code(errno), "close " + path.string() + ": " + std::strerror(errno));
+  return Status::ok();
+}
+
+Status fsync_path(const fs::path& path, bool directory) {
+  const int fd = ::open(path.c_str(), (directory ? (O_RDONLY | O_DIRECTORY) : O_RDONLY) | O_CLOEXEC);
+  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) return make_error(io_code(err), "fsync " + path.string() + ": " + std::strerror(err));
+  return Status::ok();
+}
+
+}  // namespace
+
+Status Session::append_journal(const std::string& text) {
   const fs::path path = dir_ / "journal.jsonl";
   if (write_hook_) VDRIG_TRY(write_hook_(path));
   const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
   if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
-  const std::string text = line.dump() + "\n";
-  // One write() of a short line to an O_APPEND file; a crash leaves at most a torn last line (dropped on open).
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return make_error(ErrorCode::kIo, "stat " + path.string() + ": " + std::strerror(err));
+  }
+  // One write() to an O_APPEND file; a crash leaves at most a torn last line (dropped on open).
   const ssize_t n = ::write(fd, text.data(), text.size());
   const int write_errno = errno;
   const int rc = n == static_cast<ssize_t>(text.size()) ? ::fsync(fd) : -1;
   const int sync_errno = errno;
+  if (rc != 0) {
+    // Whatever part did land must not count (nor glue onto the next append): cut it off again.
+    if (::ftruncate(fd, st.st_size) == 0) (void)::fsync(fd);
+  }
   ::close(fd);
   if (n != static_cast<ssize_t>(text.size())) {
-    const bool full = write_errno == ENOSPC || write_errno == EDQUOT;
-    return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo,
-                      "append to journal: " + std::string(std::strerror(write_errno)));
+    const int err = n < 0 ? write_errno : ENOSPC;  // a short write to a regular file means the disk is full
+    return make_error(io_code(err), "append to journal: " + std::string(std::strerror(err)));
   }
-  if (rc != 0) return make_error(ErrorCode::kIo, "fsync journal: " + std::string(std::strerror(sync_errno)));
+  if (rc != 0) return make_error(io_code(sync_errno), "fsync journal: " + std::string(std::strerror(sync_errno)));
   return Status::ok();
 }
 
 Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Frame& frame, bool saturated) {
+  if (frame.image.empty()) return make_error(ErrorCode::kInvalidArgument, "empty frame image");
+  if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U)
+    return make_error(ErrorCode::kInvalidArgument, "frame image must be 8- or 16-bit");
   char name[64];
   std::snprintf(name, sizeof name, "frames/view_%04d_e%02d.png", view, bracket_index);
+  std::vector<uchar> bytes;
+  try {
+    // Speed over size (encoding is the daemon's main per-frame CPU cost): OpenCV's fast path is zlib level 1 with
+    // the RLE strategy and the SUB filter only; naming a compression level instead makes libpng try every filter on
+    // every row, about twice as slow for files ~15% smaller.
+    if (!cv::imencode(".png", frame.image, bytes, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE}))
+      return make_error(ErrorCode::kIo, std::string("PNG encoding failed for ") + name);
+  } catch (const cv::Exception& e) {
+    return make_error(ErrorCode::kIo, std::string("PNG encoding failed for ") + name + ": " + e.what());
+  }
   if (write_hook_) VDRIG_TRY(write_hook_(dir_ / name));
-  VDRIG_TRY(write_png(dir_ / name, frame.image));
+  // No temporary + rename: until the view's commit no journal line names this file, so a torn file is never read.
+  VDRIG_TRY(write_frame_file(dir_ / name, bytes));
   FrameRecord r;
   r.view = view;
   r.bracket_index = bracket_index;
@@ -254,15 +316,28 @@ Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Fra
   r.timestamp_ns = frame.timestamp_ns;
   r.sequence = frame.sequence;
   r.saturated = saturated;
-  VDRIG_TRY(append_journal(r.to_json()));
-  frames_.push_back(r);
+  std::erase_if(pending_, [&](const FrameRecord& p) { return p.view != view || p.bracket_index == bracket_index; });
+  pending_.push_back(r);
   return r;
 }
 
 Status Session::mark_view_complete(int view, int frames) {
+  std::vector<FrameRecord> batch;
+  for (const auto& p : pending_)
+    if (p.view == view && (frames < 0 || p.bracket_index < frames)) batch.push_back(p);
+  if (!batch.empty()) {
+    // Data first, then the names, then the line that makes them count.
+    for (const auto& r : batch) VDRIG_TRY(fsync_path(dir_ / r.file, false));
+    VDRIG_TRY(fsync_path(dir_ / "frames", true));
+  }
+  std::string text;
+  for (const auto& r : batch) text += r.to_json().dump() + "\n";
   json line = {{"type", "view_complete"}, {"view", view}};
   if (frames >= 0) line["frames"] = frames;
-  VDRIG_TRY(append_journal(line));
+  text += line.dump() + "\n";
+  VDRIG_TRY(append_journal(text));
+  frames_.insert(frames_.end(), batch.begin(), batch.end());
+  std::erase_if(pending_, [&](const FrameRecord& p) { return p.view == view; });
   complete_views_[view] = frames;
   return Status::ok();
 }
@@ -276,7 +351,7 @@ Status Session::append_event(const json& event) {
   json line = event;
   line["type"] = "event";
   line["utc"] = utc_now();
-  return append_journal(line);
+  return append_journal(line.dump() + "\n");
 }
 
 Result<cv::Mat> Session::load_image(const FrameRecord& record) const { return read_png(dir_ / record.file); }

@@ -1,6 +1,7 @@
 #include "vdrig/fitting/obsmap.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/core/utility.hpp>
 
 #include "vdrig/core/geometry.hpp"
@@ -65,34 +66,44 @@ bool sample_bilinear(const cv::Mat& img, double x, double y, Eigen::Vector3f* rg
   return true;
 }
 
+uint8_t ObservationMap::observation(int s, int t, int view, Eigen::Vector3f* rgb, Eigen::Vector3f* dir) const {
+  const size_t i = index(s, t, view);
+  *rgb = Eigen::Vector3f(radiance_[3 * i], radiance_[3 * i + 1], radiance_[3 * i + 2]);
+  *dir = Eigen::Vector3f(direction_[3 * i], direction_[3 * i + 1], direction_[3 * i + 2]);
+  return flags_[i];
+}
+
+uint8_t observe_texel(const ObservationMapSpec& spec, const ViewInput& in, int s, int t, Eigen::Vector3f* rgb,
+                      Eigen::Vector3f* dir) {
+  const Vec3d p = texel_centre_mm(s, t, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
+  *dir = (in.pose.camera_centre() - p).normalized().cast<float>();
+  *rgb = Eigen::Vector3f::Zero();
+  if (in.excluded) return kObsExcluded;
+  if (dir->z() <= 0.0f) return kObsBackFacing;
+  const Vec3d pc = in.pose.to_camera(p);
+  if (pc.z() <= 0.0) return kObsOutside;
+  const Vec2d px = in.camera.project(pc);
+  if (!sample_bilinear(in.radiance_bgr, px.x(), px.y(), rgb)) {
+    // sample_bilinear may have left nothing or garbage: an unusable observation carries zero radiance.
+    *rgb = Eigen::Vector3f::Zero();
+    return kObsOutside;
+  }
+  if (!in.clip_mask.empty()) {
+    const int xi = static_cast<int>(std::lround(px.x())), yi = static_cast<int>(std::lround(px.y()));
+    if (in.clip_mask.at<uint8_t>(yi, xi) != 0) return kObsClipped;
+  }
+  return kObsValid;
+}
+
 void add_view(ObservationMap& map, int view, const ViewInput& in) {
   VDRIG_CHECK(in.radiance_bgr.type() == CV_32FC3, "view radiance must be CV_32FC3");
   VDRIG_CHECK(view >= 0 && view < map.views(), "view index out of range");
   const ObservationMapSpec& spec = map.spec();
-  const Vec3d centre = in.pose.camera_centre();
   cv::parallel_for_(cv::Range(0, spec.texels_t), [&](const cv::Range& rows) {
     for (int t = rows.start; t < rows.end; ++t)
       for (int s = 0; s < spec.texels_s; ++s) {
-        const Vec3d p = texel_centre_mm(s, t, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
-        const Eigen::Vector3f dir = (centre - p).normalized().cast<float>();
-        Eigen::Vector3f rgb = Eigen::Vector3f::Zero();
-        uint8_t flag = kObsValid;
-        const Vec3d pc = in.pose.to_camera(p);
-        if (in.excluded) {
-          flag = kObsExcluded;
-        } else if (dir.z() <= 0.0f) {
-          flag = kObsBackFacing;
-        } else if (pc.z() <= 0.0) {
-          flag = kObsOutside;
-        } else {
-          const Vec2d px = in.camera.project(pc);
-          if (!sample_bilinear(in.radiance_bgr, px.x(), px.y(), &rgb)) {
-            flag = kObsOutside;
-          } else if (!in.clip_mask.empty()) {
-            const int xi = static_cast<int>(std::lround(px.x())), yi = static_cast<int>(std::lround(px.y()));
-            if (in.clip_mask.at<uint8_t>(yi, xi) != 0) flag = kObsClipped;
-          }
-        }
+        Eigen::Vector3f rgb, dir;
+        const uint8_t flag = observe_texel(spec, in, s, t, &rgb, &dir);
         map.set(s, t, view, rgb, dir, flag);
       }
   });

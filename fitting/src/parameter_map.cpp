@@ -2,6 +2,9 @@
 
 #include <cstdio>
 
+#include "vdrig/fitting/hsh.hpp"
+#include "vdrig/fitting/sh.hpp"
+
 namespace vdrig::fitting {
 namespace {
 
@@ -10,6 +13,12 @@ const char* kXyz[3] = {"x", "y", "z"};
 
 std::string lobe_channel(const char* base, int k, const char* c) {
   return std::string(base) + std::to_string(k) + "." + c;
+}
+
+std::string sh_channel(const ModelDescriptor& m, int c, int i) {
+  char idx[16];
+  std::snprintf(idx, sizeof idx, "%02d", i);
+  return std::string(m.kind == "hsh" ? "hsh." : "sh.") + kRgb[c] + "." + idx;
 }
 
 std::vector<std::string> model_channels(const ModelDescriptor& m) {
@@ -22,14 +31,10 @@ std::vector<std::string> model_channels(const ModelDescriptor& m) {
       if (!m.shared_shininess) names.push_back("m" + std::to_string(k));
     }
     if (m.shared_shininess) names.push_back("m");
+    if (m.auto_lobes) names.push_back("lobes");
   } else {
-    const std::string prefix = m.kind == "hsh" ? "hsh." : "sh.";
-    for (auto c : kRgb)
-      for (int i = 0; i < m.coefficients_per_channel(); ++i) {
-        char idx[16];
-        std::snprintf(idx, sizeof idx, "%02d", i);
-        names.push_back(prefix + c + "." + idx);
-      }
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < m.coefficients_per_channel(); ++i) names.push_back(sh_channel(m, c, i));
   }
   for (auto c : kRgb) names.push_back(std::string("rms.") + c);
   for (auto c : kRgb) names.push_back(std::string("mpe.") + c);
@@ -54,7 +59,8 @@ Result<ModelDescriptor> ModelDescriptor::parse(const std::string& spec) {
       std::string lobes = rest.substr(0, rest.find(':'));
       if (rest.find(":per-lobe-m") != std::string::npos) m.shared_shininess = false;
       if (lobes.empty()) lobes = "1";
-      m.lobes = lobes == "auto" ? 0 : std::stoi(lobes);
+      m.auto_lobes = lobes == "auto";
+      m.lobes = m.auto_lobes ? 0 : std::stoi(lobes);
       if (m.lobes < 0 || m.lobes > 4) return bad("lobes must be 1..4 or auto");
     } else if (m.kind == "sh-zh" || m.kind == "sh-lsop" || m.kind == "sh-ls" || m.kind == "hsh") {
       m.bands = std::stoi(rest);
@@ -71,7 +77,7 @@ Result<ModelDescriptor> ModelDescriptor::parse(const std::string& spec) {
 
 std::string ModelDescriptor::to_string() const {
   if (kind == "phong")
-    return "phong:" + (lobes == 0 ? std::string("auto") : std::to_string(lobes)) +
+    return "phong:" + (auto_lobes || lobes == 0 ? std::string("auto") : std::to_string(lobes)) +
            (shared_shininess ? "" : ":per-lobe-m");
   return kind + ":" + std::to_string(bands);
 }
@@ -88,6 +94,19 @@ ParameterMap::ParameterMap(const ModelDescriptor& model, int S, int T, double wi
   image_.number_attributes["vdrig.surface_width_mm"] = width_mm;
   image_.number_attributes["vdrig.surface_height_mm"] = height_mm;
   image_.number_attributes["vdrig.parameter_map_version"] = kParameterMapFormatVersion;
+  index_coefficients();
+}
+
+void ParameterMap::index_coefficients() {
+  // Looked up once: a file read back may hold the channels in any order, and per-texel lookups by name would cost
+  // O(channels) each.
+  coeff_channel_.clear();
+  if (model_.kind == "phong") return;
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < model_.coefficients_per_channel(); ++i) {
+      coeff_channel_.push_back(image_.find(sh_channel(model_, c, i)));
+      VDRIG_CHECK(coeff_channel_.back() >= 0, "parameter map lacks channel " + sh_channel(model_, c, i));
+    }
 }
 
 float& ParameterMap::at(const std::string& channel, int s, int t) {
@@ -141,10 +160,46 @@ void ParameterMap::set_quality(int s, int t, const FitQuality& q) {
   at("n", s, t) = static_cast<float>(q.samples);
 }
 
+void ParameterMap::set_sh(int s, int t, const Eigen::MatrixXd& coeffs) {
+  VDRIG_CHECK(model_.kind != "phong", "set_sh on a Phong map");
+  VDRIG_CHECK(coeffs.rows() == model_.coefficients_per_channel() && coeffs.cols() == 3,
+              "set_sh: coefficients must be n^2 x 3");
+  const int k = model_.coefficients_per_channel();
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < k; ++i)
+      image_.channels[coeff_channel_[c * k + i]].at<float>(t, s) = static_cast<float>(coeffs(i, c));
+}
+
+ShExpansion ParameterMap::sh(int s, int t) const {
+  VDRIG_CHECK(model_.kind != "phong", "sh() on a Phong map");
+  ShExpansion e;
+  e.hemispherical = model_.kind == "hsh";
+  e.coeffs.resize(model_.coefficients_per_channel(), 3);
+  const int k = model_.coefficients_per_channel();
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < k; ++i) e.coeffs(i, c) = image_.channels[coeff_channel_[c * k + i]].at<float>(t, s);
+  return e;
+}
+
+void ParameterMap::add_channel(const std::string& name) {
+  if (!has(name)) image_.add(name, cv::Mat(texels_t(), texels_s(), CV_32FC1, cv::Scalar(0)));
+}
+
+void ParameterMap::set_holdout_rms(int s, int t, const Vec3d& rms) {
+  for (int c = 0; c < 3; ++c) {
+    const std::string name = std::string("holdout.") + kRgb[c];
+    add_channel(name);
+    at(name, s, t) = static_cast<float>(rms[c]);
+  }
+}
+
+Vec3d ShExpansion::evaluate(const Vec3d& v) const {
+  return hemispherical ? Vec3d(eval_hsh(coeffs, v)) : Vec3d(eval_sh(coeffs, v));
+}
+
 Vec3d ParameterMap::evaluate(int s, int t, const Vec3d& v) const {
   if (model_.kind == "phong") return phong(s, t).evaluate(v);
-  VDRIG_CHECK(false, "evaluate: model " + model_.kind + " is not supported here yet");
-  return Vec3d::Zero();
+  return sh(s, t).evaluate(v);
 }
 
 Status ParameterMap::write(const std::filesystem::path& path, ExrPixelType type) const {
@@ -161,7 +216,11 @@ Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
     return make_error(ErrorCode::kCorrupt, path.string() + " is not a vdrig parameter map (no vdrig.model_spec)");
   auto model = ModelDescriptor::parse(spec_it->second);
   if (!model) return make_error(ErrorCode::kCorrupt, path.string() + ": " + model.error().message);
-  if (model->kind == "phong" && model->lobes == 0) model->lobes = static_cast<int>(na.at("vdrig.lobes"));
+  if (model->kind == "phong" && model->lobes == 0) {
+    model->lobes = na.count("vdrig.lobes") ? static_cast<int>(na.at("vdrig.lobes")) : 0;
+    if (model->lobes < 1 || model->lobes > 4)
+      return make_error(ErrorCode::kCorrupt, path.string() + ": bad vdrig.lobes");
+  }
   ParameterMap map;
   map.model_ = model.value();
   map.width_mm_ = na.at("vdrig.surface_width_mm");
@@ -169,6 +228,7 @@ Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
   for (const auto& name : model_channels(map.model_))
     if (img->find(name) < 0) return make_error(ErrorCode::kCorrupt, path.string() + ": missing channel " + name);
   map.image_ = std::move(img.value());
+  map.index_coefficients();
   return map;
 }
 

@@ -2,8 +2,12 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 
 namespace vdrig::fitting {
 
@@ -30,44 +34,184 @@ bool PhongFitOptions::is_valid(std::string* why) const {
 
 namespace {
 
-/// Residuals of one texel's Phong-K model over all its observations: one Ceres residual block per texel (3 residuals
-/// per observation), automatic derivatives. Parameter block layout:
+/// Residuals of one texel's Phong-K model over all its observations (3 per observation) with analytic derivatives,
+/// accumulated straight into the normal equations J^T J, J^T r (the Jacobian itself, 3N x P, is never stored).
+/// Parameter layout:
 ///   [Kd R G B] then per lobe k [Ks R G B, azimuth_k, zenith_k], then log(m) once (shared) or per lobe.
+/// Model per channel c: I_c = Kd_c + sum_k Ks_kc s_k, s_k = c_k^m_k, c_k = max(0, v . d_k), m_k = exp(L_k), so
+///   dI/dKs_kc = s_k,  dI/d(az_k, zen_k) = Ks_kc m_k c_k^(m_k - 1) v . d(d_k)/d(az_k, zen_k),
+///   dI/dL_k = Ks_kc s_k m_k ln c_k.
 template <int K, bool kShared>
-struct PhongTexelCost {
+class PhongTexelCost {
+ public:
   static constexpr int kParams = 3 + 5 * K + (kShared ? 1 : K);
+  using Vec = Eigen::Matrix<double, kParams, 1>;
+  using Mat = Eigen::Matrix<double, kParams, kParams>;
 
-  const TexelObservations* obs;
-  std::vector<double> weight;  // per observation and channel (3 each): 1 for absolute, 1/(|o|+floor) for relative
+  PhongTexelCost(const TexelObservations* obs, std::vector<double> weight) : obs_(obs), weight_(std::move(weight)) {}
 
-  template <typename T>
-  bool operator()(const T* p, T* residuals) const {
-    T dir[K][3];
-    T m[K];
+  /// 0.5 sum r^2 at p; with jtj/jtr also the normal equations (both overwritten).
+  double evaluate(const Vec& p, Mat* jtj, Vec* jtr) const {
+    double dir[K][3], d_az[K][3], d_zen[K][3], m[K];
     for (int k = 0; k < K; ++k) {
-      const T az = p[3 + 5 * k + 3], zen = p[3 + 5 * k + 4];
-      const T sz = sin(zen);
-      dir[k][0] = sz * cos(az);
-      dir[k][1] = sz * sin(az);
-      dir[k][2] = cos(zen);
-      m[k] = exp(p[3 + 5 * K + (kShared ? 0 : k)]);
+      const double az = p[3 + 5 * k + 3], zen = p[3 + 5 * k + 4];
+      const double sa = std::sin(az), ca = std::cos(az), sz = std::sin(zen), cz = std::cos(zen);
+      dir[k][0] = sz * ca;
+      dir[k][1] = sz * sa;
+      dir[k][2] = cz;
+      d_az[k][0] = -sz * sa;
+      d_az[k][1] = sz * ca;
+      d_az[k][2] = 0.0;
+      d_zen[k][0] = cz * ca;
+      d_zen[k][1] = cz * sa;
+      d_zen[k][2] = -sz;
+      m[k] = std::exp(p[3 + 5 * K + (kShared ? 0 : k)]);
     }
-    for (size_t i = 0; i < obs->size(); ++i) {
-      const Eigen::Vector3f& v = obs->direction[i];
-      T pred[3] = {p[0], p[1], p[2]};
+    if (jtj) {
+      jtj->setZero();
+      jtr->setZero();
+    }
+    double cost = 0.0;
+    for (size_t i = 0; i < obs_->size(); ++i) {
+      const Eigen::Vector3f& vf = obs_->direction[i];
+      const double v[3] = {vf[0], vf[1], vf[2]};
+      double pred[3] = {p[0], p[1], p[2]};
+      double s[K], ds_daz[K], ds_dzen[K], ds_dl[K];
       for (int k = 0; k < K; ++k) {
-        const T c = dir[k][0] * double(v[0]) + dir[k][1] * double(v[1]) + dir[k][2] * double(v[2]);
-        if (c > T(0.0)) {
-          const T s = exp(m[k] * log(c));
-          for (int ch = 0; ch < 3; ++ch) pred[ch] += p[3 + 5 * k + ch] * s;
+        const double c = dir[k][0] * v[0] + dir[k][1] * v[1] + dir[k][2] * v[2];
+        s[k] = ds_daz[k] = ds_dzen[k] = ds_dl[k] = 0.0;
+        if (c > 0.0) {
+          const double log_c = std::log(c);
+          s[k] = std::exp(m[k] * log_c);
+          if (jtj) {
+            const double ds_dc = m[k] * s[k] / c;
+            ds_daz[k] = ds_dc * (d_az[k][0] * v[0] + d_az[k][1] * v[1]);
+            ds_dzen[k] = ds_dc * (d_zen[k][0] * v[0] + d_zen[k][1] * v[1] + d_zen[k][2] * v[2]);
+            ds_dl[k] = s[k] * m[k] * log_c;
+          }
+        }
+        for (int ch = 0; ch < 3; ++ch) pred[ch] += p[3 + 5 * k + ch] * s[k];
+      }
+      for (int ch = 0; ch < 3; ++ch) {
+        const double w = weight_[3 * i + ch];
+        const double r = (pred[ch] - obs_->radiance[i][ch]) * w;
+        cost += 0.5 * r * r;
+        if (!jtj) continue;
+        // The row is sparse (Kd_c, and per lobe Ks_kc, azimuth, zenith, log m): accumulate only its non-zeros.
+        constexpr int kNonZero = 1 + 3 * K + (kShared ? 1 : K);
+        int idx[kNonZero];
+        double val[kNonZero];
+        int n = 0;
+        idx[n] = ch;
+        val[n++] = w;
+        double dl_shared = 0.0;
+        for (int k = 0; k < K; ++k) {
+          const double ks = p[3 + 5 * k + ch];
+          idx[n] = 3 + 5 * k + ch;
+          val[n++] = w * s[k];
+          idx[n] = 3 + 5 * k + 3;
+          val[n++] = w * ks * ds_daz[k];
+          idx[n] = 3 + 5 * k + 4;
+          val[n++] = w * ks * ds_dzen[k];
+          if (kShared) {
+            dl_shared += w * ks * ds_dl[k];
+          } else {
+            idx[n] = 3 + 5 * K + k;
+            val[n++] = w * ks * ds_dl[k];
+          }
+        }
+        if (kShared) {
+          idx[n] = 3 + 5 * K;
+          val[n++] = dl_shared;
+        }
+        for (int a = 0; a < kNonZero; ++a) {
+          (*jtr)[idx[a]] += r * val[a];
+          for (int b = 0; b < kNonZero; ++b) (*jtj)(idx[a], idx[b]) += val[a] * val[b];
         }
       }
-      for (int ch = 0; ch < 3; ++ch)
-        residuals[3 * i + ch] = (pred[ch] - double(obs->radiance[i][ch])) * weight[3 * i + ch];
     }
-    return true;
+    return cost;
   }
+
+ private:
+  const TexelObservations* obs_;
+  std::vector<double> weight_;  // per observation and channel (3 each): 1 for absolute, 1/(|o|+floor) for relative
 };
+
+/// Levenberg-Marquardt with box bounds for the small dense problems of one texel: steps of (J^T J + lambda
+/// diag(J^T J)) dx = -J^T r, projected onto the bounds; coordinates held at a bound by the gradient are frozen for
+/// the step. Ceres did the same job but its per-evaluation bookkeeping (validity scans and copies of the 3N x P
+/// Jacobian, forming J^T J from it) took over half of a map fit; here J^T J is accumulated directly.
+/// Termination as Ceres': relative cost decrease < function_tolerance, step < parameter_tolerance (|p| + tol), or the
+/// projected gradient's max norm < gradient_tolerance. Returns true when one of them was met.
+template <class Cost>
+bool minimise_bounded(const Cost& cost_fn, typename Cost::Vec& p, const typename Cost::Vec& lo,
+                      const typename Cost::Vec& hi, int max_iterations, double* final_cost) {
+  using Vec = typename Cost::Vec;
+  using Mat = typename Cost::Mat;
+  constexpr double kFunctionTolerance = 1e-10, kParameterTolerance = 1e-10, kGradientTolerance = 1e-14;
+  p = p.cwiseMax(lo).cwiseMin(hi);
+  Mat jtj;
+  Vec g;
+  double cost = cost_fn.evaluate(p, &jtj, &g);
+  double lambda = 1e-4, nu = 2.0;
+  bool converged = false;
+  for (int it = 0; it < max_iterations && !converged; ++it) {
+    // Coordinates at a bound whose descent direction points out of the box stay where they are.
+    Eigen::Matrix<bool, Cost::kParams, 1> frozen;
+    double proj_grad = 0.0;
+    for (int j = 0; j < Cost::kParams; ++j) {
+      frozen[j] = (p[j] <= lo[j] && g[j] > 0.0) || (p[j] >= hi[j] && g[j] < 0.0);
+      if (!frozen[j]) proj_grad = std::max(proj_grad, std::abs(g[j]));
+    }
+    if (proj_grad < kGradientTolerance) {
+      converged = true;
+      break;
+    }
+    bool stepped = false;
+    while (!stepped) {
+      Mat a = jtj;
+      Vec rhs = -g;
+      const double diag_floor = 1e-12 * std::max(1.0, jtj.diagonal().maxCoeff());
+      for (int j = 0; j < Cost::kParams; ++j) {
+        a(j, j) += lambda * std::max(jtj(j, j), diag_floor);
+        if (frozen[j]) {
+          a.row(j).setZero();
+          a.col(j).setZero();
+          a(j, j) = 1.0;
+          rhs[j] = 0.0;
+        }
+      }
+      const Vec p_new = (p + a.ldlt().solve(rhs)).cwiseMax(lo).cwiseMin(hi);
+      const Vec step = p_new - p;
+      if (!step.allFinite()) return false;
+      if (step.norm() <= kParameterTolerance * (p.norm() + kParameterTolerance)) {
+        converged = true;
+        break;
+      }
+      const double predicted = -(g.dot(step) + 0.5 * step.dot(jtj * step));
+      const double new_cost = cost_fn.evaluate(p_new, nullptr, nullptr);
+      if (std::isfinite(new_cost) && new_cost < cost) {
+        const double rho = predicted > 0 ? (cost - new_cost) / predicted : 0.5;
+        converged = (cost - new_cost) <= kFunctionTolerance * cost;
+        p = p_new;
+        cost = cost_fn.evaluate(p, &jtj, &g);
+        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        nu = 2.0;
+        stepped = true;
+      } else {
+        lambda *= nu;
+        nu *= 2.0;
+        if (lambda > 1e16) {  // no descent left at any step length: a minimum to working precision
+          converged = true;
+          break;
+        }
+      }
+    }
+  }
+  *final_cost = cost;
+  return converged;
+}
 
 double luminance(const Eigen::Vector3f& rgb) { return rgb[0] + rgb[1] + rgb[2]; }
 
@@ -106,12 +250,24 @@ double fit_two_terms(const std::vector<double>& s, const std::vector<double>& o,
 }
 
 /// Adds a lobe at the direction of the largest residual of `base` and picks Kd, Ks_new, m by a coarse search.
+/// The per-observation quantities that do not depend on the candidate m (cosines, their logs, what the existing
+/// lobes leave unexplained) are computed once; each candidate then costs one exp per lit observation.
 void initialise_lobe(const TexelObservations& obs, const PhongFitOptions& opt, PhongParams* params) {
+  const size_t n = obs.size();
   // Residual of the current model (without a new lobe) per observation, as luminance.
   size_t peak = 0;
   double best = -1e300;
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const double r = luminance(obs.radiance[i]) - params->evaluate(obs.direction[i].cast<double>()).sum();
+  std::vector<double> o[3];
+  for (auto& v : o) v.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3d d = obs.direction[i].cast<double>();
+    Vec3d others = Vec3d::Zero();
+    for (const auto& l : params->lobes) {
+      const double c = d.dot(l.direction);
+      if (c > 0) others += l.ks * std::pow(c, l.shininess);
+    }
+    for (int ch = 0; ch < 3; ++ch) o[ch][i] = obs.radiance[i][ch] - others[ch];
+    const double r = luminance(obs.radiance[i]) - params->kd.sum() - others.sum();
     if (r > best) {
       best = r;
       peak = i;
@@ -119,29 +275,20 @@ void initialise_lobe(const TexelObservations& obs, const PhongFitOptions& opt, P
   }
   Vec3d r0 = obs.direction[peak].cast<double>().normalized();
   if (r0.z() < 1e-3) r0 = Vec3d(r0.x(), r0.y(), 1e-3).normalized();
-  std::vector<double> s(obs.size()), o(obs.size());
+  std::vector<double> log_c(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double c = obs.direction[i].cast<double>().dot(r0);
+    log_c[i] = c > 0 ? std::log(c) : -std::numeric_limits<double>::infinity();
+  }
+  std::vector<double> s(n);
   double best_err = 1e300;
   PhongLobe best_lobe;
   Vec3d best_kd = params->kd;
   for (double m = 1.0; m <= opt.max_shininess; m *= 1.5) {
-    for (size_t i = 0; i < obs.size(); ++i) {
-      const double c = obs.direction[i].cast<double>().dot(r0);
-      s[i] = c > 0 ? std::pow(c, m) : 0.0;
-    }
+    for (size_t i = 0; i < n; ++i) s[i] = std::exp(m * log_c[i]);  // exp(-inf) = 0 for unlit observations
     double err = 0;
     Vec3d kd, ks;
-    for (int ch = 0; ch < 3; ++ch) {
-      // Fit against what the existing lobes leave unexplained.
-      for (size_t i = 0; i < obs.size(); ++i) {
-        double others = 0;
-        for (const auto& l : params->lobes) {
-          const double c = obs.direction[i].cast<double>().dot(l.direction);
-          if (c > 0) others += l.ks[ch] * std::pow(c, l.shininess);
-        }
-        o[i] = obs.radiance[i][ch] - others;
-      }
-      err += fit_two_terms(s, o, &kd[ch], &ks[ch]);
-    }
+    for (int ch = 0; ch < 3; ++ch) err += fit_two_terms(s, o[ch], &kd[ch], &ks[ch]);
     if (err < best_err) {
       best_err = err;
       best_lobe = {ks, r0, m};
@@ -152,42 +299,60 @@ void initialise_lobe(const TexelObservations& obs, const PhongFitOptions& opt, P
   params->lobes.push_back(best_lobe);
 }
 
+/// The same residuals as PhongTexelCost, as a Ceres functor with automatic derivatives: one residual block per texel
+/// (3 residuals per observation), one parameter block laid out as PhongTexelCost's. The reference solver (see
+/// PhongSolver); bench_phong_fit runs both side by side.
 template <int K, bool kShared>
-PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
-  using Cost = PhongTexelCost<K, kShared>;
-  std::vector<double> p(Cost::kParams);
-  for (int c = 0; c < 3; ++c) p[c] = std::max(0.0, init.kd[c]);
-  for (int k = 0; k < K; ++k) {
-    const PhongLobe& l = init.lobes[k];
-    for (int c = 0; c < 3; ++c) p[3 + 5 * k + c] = std::max(0.0, l.ks[c]);
-    const SphericalDir sd = spherical_from_direction(l.direction);
-    p[3 + 5 * k + 3] = sd.azimuth_rad;
-    p[3 + 5 * k + 4] = std::min(sd.zenith_rad, kPi / 2);
-    if (kShared && k > 0) continue;
-    p[3 + 5 * K + (kShared ? 0 : k)] = std::log(std::clamp(l.shininess, 1.0, opt.max_shininess));
+struct PhongAutoDiffResiduals {
+  static constexpr int kParams = 3 + 5 * K + (kShared ? 1 : K);
+  const TexelObservations* obs;
+  const std::vector<double>* weight;
+
+  template <typename T>
+  bool operator()(const T* p, T* residuals) const {
+    T dir[K][3];
+    T m[K];
+    for (int k = 0; k < K; ++k) {
+      const T az = p[3 + 5 * k + 3], zen = p[3 + 5 * k + 4];
+      const T sz = sin(zen);
+      dir[k][0] = sz * cos(az);
+      dir[k][1] = sz * sin(az);
+      dir[k][2] = cos(zen);
+      m[k] = exp(p[3 + 5 * K + (kShared ? 0 : k)]);
+    }
+    for (size_t i = 0; i < obs->size(); ++i) {
+      const Eigen::Vector3f& v = obs->direction[i];
+      T pred[3] = {p[0], p[1], p[2]};
+      for (int k = 0; k < K; ++k) {
+        const T c = dir[k][0] * double(v[0]) + dir[k][1] * double(v[1]) + dir[k][2] * double(v[2]);
+        if (c > T(0.0)) {
+          const T s = exp(m[k] * log(c));
+          for (int ch = 0; ch < 3; ++ch) pred[ch] += p[3 + 5 * k + ch] * s;
+        }
+      }
+      for (int ch = 0; ch < 3; ++ch)
+        residuals[3 * i + ch] = (pred[ch] - double(obs->radiance[i][ch])) * (*weight)[3 * i + ch];
+    }
+    return true;
   }
-  auto* functor = new Cost{&obs, std::vector<double>(3 * obs.size(), 1.0)};
-  if (opt.residual == ResidualMode::kRelative)
-    for (size_t i = 0; i < obs.size(); ++i)
-      for (int c = 0; c < 3; ++c)
-        functor->weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
+};
+
+template <int K, bool kShared, typename Vec>
+bool minimise_with_ceres(const TexelObservations& obs, const std::vector<double>& weight, Vec& p, const Vec& lo,
+                         const Vec& hi, int max_iterations, double* final_cost) {
+  using Functor = PhongAutoDiffResiduals<K, kShared>;
+  constexpr int n = Functor::kParams;
   ceres::Problem problem;
-  auto* cost =
-      new ceres::AutoDiffCostFunction<Cost, ceres::DYNAMIC, Cost::kParams>(functor, static_cast<int>(3 * obs.size()));
+  auto* cost = new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, n>(new Functor{&obs, &weight},
+                                                                           static_cast<int>(3 * obs.size()));
   problem.AddResidualBlock(cost, nullptr, p.data());
-  for (int c = 0; c < 3; ++c) problem.SetParameterLowerBound(p.data(), c, 0.0);
-  for (int k = 0; k < K; ++k) {
-    for (int c = 0; c < 3; ++c) problem.SetParameterLowerBound(p.data(), 3 + 5 * k + c, 0.0);
-    problem.SetParameterLowerBound(p.data(), 3 + 5 * k + 4, 0.0);
-    problem.SetParameterUpperBound(p.data(), 3 + 5 * k + 4, kPi / 2);
-  }
-  for (int j = 3 + 5 * K; j < Cost::kParams; ++j) {
-    problem.SetParameterLowerBound(p.data(), j, 0.0);
-    problem.SetParameterUpperBound(p.data(), j, std::log(opt.max_shininess));
+  for (int j = 0; j < n; ++j) {
+    if (std::isfinite(lo[j])) problem.SetParameterLowerBound(p.data(), j, lo[j]);
+    if (std::isfinite(hi[j])) problem.SetParameterUpperBound(p.data(), j, hi[j]);
   }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = opt.max_iterations;
+  so.max_num_iterations = max_iterations;
   so.num_threads = 1;
   so.function_tolerance = 1e-12;
   so.gradient_tolerance = 1e-14;
@@ -195,8 +360,42 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  *final_cost = summary.final_cost;
+  return summary.termination_type == ceres::CONVERGENCE;
+}
 
+template <int K, bool kShared>
+PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
+  using Cost = PhongTexelCost<K, kShared>;
+  typename Cost::Vec p, lo, hi;
+  lo.setZero();  // Kd, Ks >= 0, zenith >= 0, log(m) >= 0
+  hi.setConstant(std::numeric_limits<double>::infinity());
+  for (int c = 0; c < 3; ++c) p[c] = std::max(0.0, init.kd[c]);
+  for (int k = 0; k < K; ++k) {
+    const PhongLobe& l = init.lobes[k];
+    for (int c = 0; c < 3; ++c) p[3 + 5 * k + c] = std::max(0.0, l.ks[c]);
+    const SphericalDir sd = spherical_from_direction(l.direction);
+    p[3 + 5 * k + 3] = sd.azimuth_rad;
+    lo[3 + 5 * k + 3] = -std::numeric_limits<double>::infinity();  // azimuth is free
+    p[3 + 5 * k + 4] = std::min(sd.zenith_rad, kPi / 2);
+    hi[3 + 5 * k + 4] = kPi / 2;
+    if (kShared && k > 0) continue;
+    p[3 + 5 * K + (kShared ? 0 : k)] = std::log(std::clamp(l.shininess, 1.0, opt.max_shininess));
+  }
+  for (int j = 3 + 5 * K; j < Cost::kParams; ++j) hi[j] = std::log(opt.max_shininess);
+  std::vector<double> weight(3 * obs.size(), 1.0);
+  if (opt.residual == ResidualMode::kRelative)
+    for (size_t i = 0; i < obs.size(); ++i)
+      for (int c = 0; c < 3; ++c) weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
   PhongFit fit;
+  if (opt.solver == PhongSolver::kCeres) {
+    p = p.cwiseMax(lo).cwiseMin(hi);
+    fit.converged = minimise_with_ceres<K, kShared>(obs, weight, p, lo, hi, opt.max_iterations, &fit.cost);
+  } else {
+    const Cost cost(&obs, std::move(weight));
+    fit.converged = minimise_bounded(cost, p, lo, hi, opt.max_iterations, &fit.cost);
+  }
+
   for (int c = 0; c < 3; ++c) fit.params.kd[c] = p[c];
   for (int k = 0; k < K; ++k) {
     PhongLobe l;
@@ -205,8 +404,6 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
     l.shininess = std::exp(p[3 + 5 * K + (kShared ? 0 : k)]);
     fit.params.lobes.push_back(l);
   }
-  fit.cost = summary.final_cost;
-  fit.converged = summary.termination_type == ceres::CONVERGENCE;
   fit.quality = measure_quality(fit.params, obs);
   return fit;
 }
@@ -218,19 +415,15 @@ PhongFit solve_k(const TexelObservations& obs, const PhongFitOptions& opt, const
 
 }  // namespace
 
-PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
-  std::string why;
-  VDRIG_CHECK(opt.is_valid(&why), why);
-  const size_t params = 3 + 5 * opt.lobes + (opt.shared_shininess ? 1 : opt.lobes);
-  if (obs.size() * 3 < params + 3) {
-    PhongFit fit;
-    for (size_t i = 0; i < obs.size(); ++i) fit.params.kd += obs.radiance[i].cast<double>() / obs.size();
-    fit.quality = measure_quality(fit.params, obs);
-    return fit;
-  }
+namespace {
+
+/// Fits 1, 2, ... lobes, each starting from the previous fit plus a lobe at its residual peak; after each fit
+/// `keep_going(k, fit)` decides whether to add another lobe (up to max_lobes). Returns the last accepted fit.
+PhongFit fit_progressive(const TexelObservations& obs, const PhongFitOptions& opt, int max_lobes,
+                         const std::function<bool(int, const PhongFit&)>& keep_going) {
   PhongParams init;
   PhongFit fit;
-  for (int k = 1; k <= opt.lobes; ++k) {
+  for (int k = 1; k <= max_lobes; ++k) {
     // Lobe k starts at the residual peak of the (k-1)-lobe fit.
     initialise_lobe(obs, opt, &init);
     if (opt.shared_shininess)
@@ -249,9 +442,65 @@ PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
         fit = solve_k<4>(obs, opt, init);
         break;
     }
+    if (!keep_going(k, fit)) break;
     init = fit.params;
   }
   return fit;
+}
+
+PhongFit mean_only_fit(const TexelObservations& obs) {
+  PhongFit fit;
+  for (size_t i = 0; i < obs.size(); ++i) fit.params.kd += obs.radiance[i].cast<double>() / obs.size();
+  fit.quality = measure_quality(fit.params, obs);
+  return fit;
+}
+
+}  // namespace
+
+int phong_parameter_count(int lobes, bool shared_shininess) { return 3 + 5 * lobes + (shared_shininess ? 1 : lobes); }
+
+double phong_bic(double rss, int residuals, int parameters, double rms_observed) {
+  const double n = std::max(1, residuals);
+  const double floor_rms = 1e-6 * rms_observed;
+  const double r = std::max({rss, n * floor_rms * floor_rms, std::numeric_limits<double>::min()});
+  return n * std::log(r / n) + parameters * std::log(n);
+}
+
+PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
+  std::string why;
+  VDRIG_CHECK(opt.is_valid(&why), why);
+  const size_t params = phong_parameter_count(opt.lobes, opt.shared_shininess);
+  if (obs.size() * 3 < params + 3) return mean_only_fit(obs);
+  return fit_progressive(obs, opt, opt.lobes, [](int, const PhongFit&) { return true; });
+}
+
+PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes) {
+  PhongFitOptions opt = options;
+  opt.lobes = std::clamp(max_lobes, 1, 4);
+  std::string why;
+  VDRIG_CHECK(opt.is_valid(&why), why);
+  if (obs.size() * 3 < static_cast<size_t>(phong_parameter_count(1, opt.shared_shininess)) + 3)
+    return mean_only_fit(obs);
+  const int n = static_cast<int>(3 * obs.size());
+  double sq = 0;
+  for (size_t i = 0; i < obs.size(); ++i) sq += obs.radiance[i].cast<double>().squaredNorm();
+  const double rms_observed = std::sqrt(sq / n);
+  // The residuals as minimised (weighted in relative mode): RSS = 2 cost.
+  auto bic = [&](int k, const PhongFit& f) {
+    return phong_bic(2.0 * f.cost, n, phong_parameter_count(k, opt.shared_shininess), rms_observed);
+  };
+  PhongFit best;
+  double best_bic = std::numeric_limits<double>::infinity();
+  fit_progressive(obs, opt, opt.lobes, [&](int k, const PhongFit& f) {
+    // One more lobe needs at least its parameters' worth of residuals; stop as soon as the BIC stops improving.
+    if (static_cast<size_t>(phong_parameter_count(k, opt.shared_shininess)) + 3 > 3 * obs.size()) return false;
+    const double b = bic(k, f);
+    if (b >= best_bic) return false;
+    best_bic = b;
+    best = f;
+    return true;
+  });
+  return best;
 }
 
 }  // namespace vdrig::fitting

@@ -144,7 +144,49 @@ Status merge_session_hdr(const capture::Session& session) {
   return first_error;
 }
 
+namespace {
+
+/// Calibrated geometry from SESSION/calib/, or nullopt when the session has none.
+std::optional<Result<SessionGeometry>> calibrated_geometry(const capture::Session& session) {
+  const fs::path dir = session.dir() / "calib";
+  if (!fs::exists(dir / "views.json") || !fs::exists(dir / "camera.yml")) return std::nullopt;
+  auto views = calib::read_views_json(dir / "views.json");
+  if (!views) return Result<SessionGeometry>(views.error());
+  auto camera = CameraModel::load_yaml(dir / views->camera_file);
+  if (!camera) return Result<SessionGeometry>(camera.error());
+  std::optional<rig::RigGeometry> kinematics;
+  if (!views->kinematics.is_null()) {
+    auto g = calib::KinematicFit::geometry_from_json(views->kinematics);
+    if (!g) return Result<SessionGeometry>(g.error());
+    kinematics = g.value();
+  }
+  SessionGeometry g;
+  g.camera = camera.value();
+  g.source = "calibrated";
+  for (const auto& view : session.manifest().views) {
+    const auto it = std::find_if(views->views.begin(), views->views.end(),
+                                 [&](const calib::ViewRecord& r) { return r.index == view.index; });
+    if (it != views->views.end() && it->usable()) {
+      g.poses.push_back(it->extrinsics->pose);
+      g.excluded.push_back(false);
+      continue;
+    }
+    if (!kinematics)
+      return Result<SessionGeometry>(make_error(
+          ErrorCode::kNotFound, "view " + std::to_string(view.index) +
+                                    " has no calibrated pose and views.json has no kinematic fit to pose it by"));
+    const auto frames = session.frames_of_view(view.index);
+    const PanTilt measured = frames.empty() ? view.target : frames.front().measured;
+    g.poses.push_back(rig::surface_pose(*kinematics, measured));
+    g.excluded.push_back(true);
+  }
+  return Result<SessionGeometry>(std::move(g));
+}
+
+}  // namespace
+
 Result<SessionGeometry> session_geometry(const capture::Session& session) {
+  if (auto calibrated = calibrated_geometry(session)) return std::move(*calibrated);
   const auto& rc = session.manifest().rig_config;
   if (!rc.contains("sim"))
     return make_error(ErrorCode::kNotFound, "session has no calibrated geometry (calib/) and is not simulated");
@@ -157,8 +199,112 @@ Result<SessionGeometry> session_geometry(const capture::Session& session) {
     const auto frames = session.frames_of_view(view.index);
     const PanTilt measured = frames.empty() ? view.target : frames.front().measured;
     g.poses.push_back(rig::surface_pose(sc->geometry, measured));
+    g.excluded.push_back(false);
   }
   return g;
+}
+
+Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& session,
+                                                       const GeometryCalibrationOptions& options) {
+  auto logger = log::get("calib");
+  const fs::path dir = session.dir() / "calib";
+  const auto& rc = session.manifest().rig_config;
+  std::optional<sim::SimConfig> sim_config;
+  if (rc.contains("sim")) {
+    auto sc = sim::SimConfig::from_json(rc["sim"]);
+    if (!sc) return sc.error();
+    sim_config = sc.value();
+  }
+  GeometryCalibration out;
+  bool camera_from_session = false;  // calib/camera.yml is kept as is (it may hold the intrinsics' record)
+  if (options.camera) {
+    out.camera = *options.camera;
+  } else if (fs::exists(dir / "camera.yml")) {
+    auto c = CameraModel::load_yaml(dir / "camera.yml");
+    if (!c) return c.error();
+    out.camera = c.value();
+    camera_from_session = true;
+  } else if (sim_config) {
+    logger->warn("no camera model given: using the simulator's camera (ground-truth intrinsics)");
+    out.camera = sim_config->camera;
+  } else {
+    return make_error(ErrorCode::kNotFound,
+                      "no camera model: pass one (vdrig calib intrinsics) or write calib/camera.yml");
+  }
+  std::string why;
+  if (!out.camera.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "camera model: " + why);
+
+  calib::MarkerLayout layout;
+  if (options.layout) {
+    layout = *options.layout;
+  } else if (sim_config) {
+    auto scene = sim::make_scene(sim_config->scene);
+    if (!scene) return scene.error();
+    layout.centres_mm = scene->marker_centres_mm();
+    if (!scene->markers.empty()) layout.radius_mm = scene->markers.front().radius_mm;
+  } else {
+    layout = calib::MarkerLayout::corners(session.manifest().surface_width_mm, session.manifest().surface_height_mm);
+  }
+  if (!layout.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "marker layout: " + why);
+
+  // The nominal rig: the configured camera distance, no surface offset (what the calibration measures).
+  rig::RigGeometry nominal;
+  if (sim_config) nominal.camera_distance_mm = sim_config->geometry.camera_distance_mm;
+  if (rc.contains("geometry") && rc["geometry"].contains("distance_mm"))
+    nominal.camera_distance_mm = rc["geometry"]["distance_mm"].get<double>();
+
+  VDRIG_TRY(merge_session_hdr(session));
+  calib::ExtrinsicsOptions ext;
+  ext.max_error_px = options.max_error_px;
+  out.views.layout = layout;
+  out.views.max_error_px = options.max_error_px;
+  std::vector<calib::KinematicObservation> observations;
+  for (const auto& view : session.manifest().views) {
+    calib::ViewRecord rec;
+    rec.index = view.index;
+    const auto frames = session.frames_of_view(view.index);
+    rec.measured = frames.empty() ? view.target : frames.front().measured;
+    if (!session.view_complete(view.index)) {
+      rec.error = "view not captured";
+    } else {
+      auto hdr = calib::read_hdr_exr(hdr_path(session, view.index));
+      auto v = hdr ? calib::calibrate_view(hdr->radiance, out.camera, rig::surface_pose(nominal, rec.measured), layout,
+                                           {}, ext)
+                   : Result<calib::ViewExtrinsics>(hdr.error());
+      if (v) {
+        rec.extrinsics = v.value();
+      } else {
+        rec.error = v.error().describe();
+      }
+    }
+    if (rec.usable()) {
+      observations.push_back({rec.index, rec.measured, rec.extrinsics->pose});
+      ++out.usable_views;
+    } else {
+      logger->warn("view {}: {}", rec.index,
+                   rec.extrinsics
+                       ? "excluded, reprojection error " + std::to_string(rec.extrinsics->reprojection_error_px) + " px"
+                       : rec.error);
+    }
+    out.views.views.push_back(std::move(rec));
+  }
+  if (out.usable_views == 0) return make_error(ErrorCode::kNotFound, "no view gave a usable marker pose");
+  if (options.fit_kinematics && observations.size() >= 2) {
+    auto fit = calib::fit_rig_geometry(observations);
+    if (fit) {
+      out.kinematics = fit.value();
+      out.views.kinematics = fit->to_json();
+    } else {
+      logger->warn("kinematic fit: {}", fit.error().describe());
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create calib/: " + ec.message());
+  if (!camera_from_session) VDRIG_TRY(out.camera.save_yaml(dir / "camera.yml"));
+  VDRIG_TRY(calib::write_views_json(dir / "views.json", out.views));
+  logger->info("extrinsics: {} of {} views usable", out.usable_views, out.views.views.size());
+  return out;
 }
 
 Result<fitting::ObservationMap> build_session_obsmap(const capture::Session& session, int S, int T,
@@ -180,6 +326,7 @@ Result<fitting::ObservationMap> build_session_obsmap(const capture::Session& ses
     input.clip_mask = hdr->mask;
     input.camera = geometry->camera;
     input.pose = geometry->poses.at(views[i]);
+    input.excluded = geometry->excluded.at(views[i]);
     fitting::add_view(map, static_cast<int>(i), input);
   }
   log::get("fitting")->info("observation map {}x{} from {} views ({})", S, T, views.size(), geometry->source);

@@ -34,7 +34,8 @@ ModbusAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, con
   s.reject_unknown({"unit", "counts_per_degree", "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2", "continuous",
                     "in_position_window_deg"});
   // A 32-bit counter must hold the whole travel.
-  const double max_counts = std::max(std::abs(a.axis.min_rad), std::abs(a.axis.max_rad)) * kDegPerRad * std::abs(a.counts_per_degree);
+  const double max_counts =
+      std::max(std::abs(a.axis.min_rad), std::abs(a.axis.max_rad)) * kDegPerRad * std::abs(a.counts_per_degree);
   if (!a.axis.continuous && max_counts > 2147483647.0) s.fail("travel exceeds the 32-bit encoder range");
   parent.absorb(s);
   return a;

@@ -1,1 +1,1 @@
-set(calib_test_deps opencv_imgproc opencv_imgcodecs opencv_calib3d)
+set(calib_test_deps opencv_imgproc opencv_imgcodecs opencv_calib3d vdrig::sim)

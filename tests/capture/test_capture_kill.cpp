@@ -11,33 +11,22 @@
 #include <random>
 #include <thread>
 
+#include "test_support.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/core/image_io.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::capture {
 namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-json small_sim_config() {
-  return sim::sim_rig_config(
-      {{"scene", "patchwork"},
-       {"samples_per_axis", 1},
-       {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
-}
-
-Result<rig::Rig> make_rig(const json& config) {
-  rig::BackendRegistry registry;
-  sim::register_backends(registry);
-  return registry.make_rig(config);
-}
+using testing::make_sim_rig;
+using testing::small_sim_config;
 
 fs::path create_session(const std::string& name, const std::string& scheme, const std::string& bracket) {
-  const fs::path dir = fs::temp_directory_path() / ("vdrig_kill_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  auto rig = make_rig(small_sim_config());
+  const fs::path dir = testing::temp_dir(name, "vdrig_kill_");
+  auto rig = make_sim_rig(small_sim_config());
   EXPECT_TRUE(rig) << rig.error().describe();
   PlanRequest req;
   req.rig_config = small_sim_config();
@@ -56,7 +45,7 @@ Status resume(const fs::path& dir, Session::WriteHook hook = {}) {
   auto session = Session::open(dir);
   if (!session) return session.error();
   session->set_write_hook(std::move(hook));
-  auto rig = make_rig(session->manifest().rig_config);
+  auto rig = make_sim_rig(session->manifest().rig_config);
   if (!rig) return rig.error();
   CaptureOptions o;
   o.bracket = parse_bracket(session->manifest().bracket).value();
@@ -100,10 +89,11 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
   const fs::path dir = create_session("sigkill", "spiral:150:7@80", "fixed:0.5,0.125");
   ASSERT_EQ(Session::open(dir)->manifest().views.size(), 150u);
   // A kill moment: once the journal has grown by a random number of bytes (so every round interrupts real work
-  // whatever the machine's speed), plus a random 0..3 ms so the kill lands anywhere in the write sequence.
+  // whatever the machine's speed), plus a random 0..15 ms so the kill lands anywhere in the next view's work: its
+  // frame writes, its fsyncs, or its commit (the journal grows only at commits).
   std::mt19937 rng(12345);
   std::uniform_int_distribution<std::uintmax_t> grow_bytes(1, 3000);
-  std::uniform_int_distribution<int> extra_us(0, 3000);
+  std::uniform_int_distribution<int> extra_us(0, 15000);
   int killed_mid_run = 0;
   for (int round = 0; round < 20; ++round) {
     const std::uintmax_t start_size = fs::file_size(dir / "journal.jsonl");
@@ -154,8 +144,8 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
 
 TEST(CaptureKill, FullDiskStopsWithNoSpaceAndResumes) {
   const fs::path dir = create_session("nospace", "spiral:40:3@80", "fixed:0.5,0.125");
-  // The disk "fills up" at the 33rd write. A view of 2 frames is 5 writes (image + journal line per frame, then the
-  // completion marker), so 6 views complete and the 7th is cut mid-bracket.
+  // The disk "fills up" at the 33rd write. A view of 2 frames is 3 writes (its two images, then one journal append
+  // committing its frame lines and its completion), so 10 views complete and the 11th is cut at its commit.
   int writes = 0;
   const Status s = resume(dir, [&](const fs::path& p) -> Status {
     if (++writes > 32) return make_error(ErrorCode::kNoSpace, "injected: no space left writing " + p.string());
@@ -165,13 +155,17 @@ TEST(CaptureKill, FullDiskStopsWithNoSpaceAndResumes) {
   EXPECT_EQ(s.error().code, ErrorCode::kNoSpace);
   auto stopped = Session::open(dir);
   ASSERT_TRUE(stopped);
-  EXPECT_EQ(stopped->completed_view_count(), 6);
-  EXPECT_FALSE(stopped->view_complete(stopped->manifest().views[6].index));
-  EXPECT_EQ(stopped->frames_of_view(6).size(), 1u);
+  EXPECT_EQ(stopped->completed_view_count(), 10);
+  EXPECT_FALSE(stopped->view_complete(10));
+  // Its image files were written, but without a durable commit they do not count: not one of its frames is journaled.
+  EXPECT_TRUE(fs::exists(dir / "frames" / "view_0010_e00.png"));
+  EXPECT_TRUE(fs::exists(dir / "frames" / "view_0010_e01.png"));
+  EXPECT_EQ(stopped->frames_of_view(10).size(), 0u);
+  EXPECT_EQ(stopped->frames().size(), 20u);
   // A reserve larger than the free space: stops before the first view, nothing written.
   {
     auto session = Session::open(dir);
-    auto rig = make_rig(session->manifest().rig_config);
+    auto rig = make_sim_rig(session->manifest().rig_config);
     CaptureOptions o;
     o.exposures_s = {0.5, 0.125};
     o.disk_reserve_bytes = free_disk_bytes(dir).value() + (1ull << 30);

@@ -1,6 +1,7 @@
 // vdrigd's control protocol, in-process: 10,000 malformed or random requests over a few connections are each
 // answered with an error (or the connection is closed, for oversized lines) and the daemon keeps serving; then a
-// small simulated session is started, followed, paused, resumed and aborted over the socket.
+// small simulated session is started, followed, paused, resumed and aborted over the socket. Peers of another uid
+// and gid are refused (SO_PEERCRED) while allowed ones are served.
 #include <gtest/gtest.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -8,100 +9,64 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <grp.h>
+#include <sys/wait.h>
+
 #include <chrono>
+#include <functional>
 #include <random>
 #include <thread>
 
+#include "test_support.hpp"
 #include "vdrig/capture/daemon.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::capture {
 namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-json small_sim_config() {
-  return sim::sim_rig_config(
-      {{"scene", "patchwork"},
-       {"samples_per_axis", 1},
-       {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
-}
+using testing::read_line;
+using testing::request;
+using testing::send_all;
 
 class DaemonFixture : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() / ("vdrigd_test_" + std::to_string(::getpid()));
+    root_ = testing::temp_dir("", "vdrigd_test");
+    start_daemon();
+  }
+  void TearDown() override {
+    stop_daemon();
     fs::remove_all(root_);
+  }
+
+  /// Starts the in-process daemon on root_; `tweak` adjusts the config first (e.g. the allowed peers).
+  void start_daemon(const std::function<void(DaemonConfig&)>& tweak = {}) {
     DaemonConfig config;
     config.runtime_dir = root_ / "run";
     config.sessions_dir = root_ / "sessions";
-    config.rig_config = small_sim_config();
-    config.make_rig = [](const json& rc) -> Result<rig::Rig> {
-      rig::BackendRegistry registry;
-      sim::register_backends(registry);
-      return registry.make_rig(rc);
-    };
+    config.rig_config = testing::small_sim_config();
+    config.make_rig = [](const json& rc) { return testing::make_sim_rig(rc); };
     config.capture.disk_reserve_bytes = 0;
+    if (tweak) tweak(config);
     daemon_ = std::make_unique<Daemon>(config);
     const Status s = daemon_->start();
     ASSERT_TRUE(s) << s.describe();
     thread_ = std::thread([this] { loop_status_ = daemon_->run(); });
   }
-  void TearDown() override {
+  /// Stops it and checks that its loop ended cleanly and removed the socket.
+  void stop_daemon() {
     if (daemon_) daemon_->request_stop();
     if (thread_.joinable()) thread_.join();
+    daemon_.reset();
     EXPECT_TRUE(loop_status_) << loop_status_.describe();
     EXPECT_FALSE(fs::exists(root_ / "run" / "vdrigd.sock"));
-    fs::remove_all(root_);
   }
 
   int connect_client() {
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    const std::string path = daemon_->socket_path().string();
-    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0) << std::strerror(errno);
+    const int fd = testing::connect_unix(daemon_->socket_path());
+    EXPECT_GE(fd, 0) << std::strerror(errno);
     return fd;
-  }
-
-  static bool send_all(int fd, const std::string& bytes) {
-    size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL);
-      if (n <= 0) return false;
-      done += static_cast<size_t>(n);
-    }
-    return true;
-  }
-
-  /// Reads one line; nullopt when the connection closed (or nothing came within the timeout).
-  static std::optional<std::string> read_line(int fd, std::string& buffer, int timeout_ms = 5000) {
-    while (true) {
-      const size_t pos = buffer.find('\n');
-      if (pos != std::string::npos) {
-        std::string line = buffer.substr(0, pos);
-        buffer.erase(0, pos + 1);
-        return line;
-      }
-      pollfd p{fd, POLLIN, 0};
-      if (::poll(&p, 1, timeout_ms) <= 0) return std::nullopt;
-      char buf[4096];
-      const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-      if (n <= 0) return std::nullopt;
-      buffer.append(buf, static_cast<size_t>(n));
-    }
-  }
-
-  json request(int fd, std::string& buffer, const json& req) {
-    EXPECT_TRUE(send_all(fd, req.dump() + "\n"));
-    while (true) {
-      auto line = read_line(fd, buffer);
-      if (!line) return json{{"closed", true}};
-      json j = json::parse(*line, nullptr, false);
-      if (j.is_discarded()) return json{{"unparseable", *line}};
-      if (!j.contains("event")) return j;  // skip pushed events
-    }
   }
 
   fs::path root_;
@@ -109,6 +74,21 @@ class DaemonFixture : public ::testing::Test {
   std::thread thread_;
   Status loop_status_;
 };
+
+/// A connection the daemon refused: it says why ({"ok": false, "code": "permission_denied"}) and closes, and a
+/// request sent afterwards gets no answer.
+void expect_refused(int fd) {
+  std::string buf;
+  const auto first = read_line(fd, buf);
+  ASSERT_TRUE(first) << "no refusal line";
+  const json reply = json::parse(*first, nullptr, false);
+  ASSERT_FALSE(reply.is_discarded()) << *first;
+  EXPECT_FALSE(reply.value("ok", true)) << *first;
+  EXPECT_EQ(reply.value("code", ""), "permission_denied") << *first;
+  (void)send_all(fd, R"({"cmd":"status"})"
+                     "\n");
+  EXPECT_FALSE(read_line(fd, buf, 2000)) << "a refused connection answered";
+}
 
 std::string random_message(std::mt19937& rng, int kind) {
   std::uniform_int_distribution<int> byte(0, 255), len(0, 200);
@@ -296,6 +276,77 @@ TEST_F(DaemonFixture, RunsASessionWithPauseResumeAbortAndMoves) {
   EXPECT_FALSE(bad.value("ok", true));
   EXPECT_FALSE(fs::exists(root_ / "escape"));
   ::close(fd);
+}
+
+// SO_PEERCRED: a peer whose uid is not the allowed one and whose gid is not the allowed group is refused at accept.
+TEST_F(DaemonFixture, RefusesPeersOfAnotherUidAndGid) {
+  stop_daemon();
+  start_daemon([](DaemonConfig& c) {
+    c.allowed_uid = ::geteuid() + 4242;  // neither ours...
+    c.allowed_gid = ::getegid() + 4242;  // ...nor our group
+  });
+  for (int k = 0; k < 20; ++k) {
+    const int fd = connect_client();
+    ASSERT_GE(fd, 0);
+    expect_refused(fd);
+    ::close(fd);
+  }
+  // Nothing was started for the refused peers.
+  EXPECT_TRUE(fs::is_empty(root_ / "sessions"));
+
+  // The same process let in through the group rule alone (its uid is still not the allowed one) is served.
+  stop_daemon();
+  start_daemon([](DaemonConfig& c) {
+    c.allowed_uid = ::geteuid() + 4242;
+    c.allowed_gid = ::getegid();
+  });
+  const int fd = connect_client();
+  std::string buf;
+  const json status = request(fd, buf, {{"cmd", "status"}});
+  EXPECT_TRUE(status.value("ok", false)) << status.dump();
+  EXPECT_EQ(status.value("state", ""), "idle");
+  ::close(fd);
+}
+
+// The same against a real process of another uid, while an allowed client (this process) keeps being served. Needs
+// root to run a child as another user.
+TEST_F(DaemonFixture, RefusesAnotherUserWhileServingTheAllowedOne) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to connect as another uid (setuid in a child)";
+  // Let the other user reach the socket through the file system, so SO_PEERCRED is the only gate.
+  fs::permissions(root_ / "run", fs::perms::all);
+  fs::permissions(daemon_->socket_path(), fs::perms::all);
+  const int allowed = connect_client();
+  std::string allowed_buf;
+  ASSERT_TRUE(request(allowed, allowed_buf, {{"cmd", "subscribe"}}).value("ok", false));
+  for (int k = 0; k < 5; ++k) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // Child: become nobody (uid/gid 65534), connect, and report through the exit code what the daemon said.
+      if (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(10);
+      const int fd = testing::connect_unix(daemon_->socket_path());
+      if (fd < 0) ::_exit(11);
+      std::string buf;
+      const auto line = read_line(fd, buf);
+      if (!line) ::_exit(12);
+      const json reply = json::parse(*line, nullptr, false);
+      if (reply.is_discarded() || reply.value("ok", true) || reply.value("code", "") != "permission_denied")
+        ::_exit(13);
+      (void)send_all(fd, "{\"cmd\":\"status\"}\n");
+      if (read_line(fd, buf, 2000)) ::_exit(14);  // answered after the refusal
+      ::_exit(0);
+    }
+    int wstatus = 0;
+    ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+    ASSERT_TRUE(WIFEXITED(wstatus));
+    EXPECT_EQ(WEXITSTATUS(wstatus), 0) << "child (uid 65534): 10 setuid, 11 connect, 12 no reply, 13 not refused, "
+                                          "14 answered after refusal";
+    // Meanwhile the allowed connection is still served.
+    const json status = request(allowed, allowed_buf, {{"cmd", "status"}, {"id", k}});
+    EXPECT_TRUE(status.value("ok", false)) << status.dump();
+    EXPECT_EQ(status.value("id", -1), k);
+  }
+  ::close(allowed);
 }
 
 }  // namespace

@@ -1,1 +1,1 @@
-set(fitting_test_deps vdrig::sim vdrig::rig)
+set(fitting_test_deps vdrig::sim vdrig::rig vdrig::capture)

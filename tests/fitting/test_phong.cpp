@@ -32,7 +32,9 @@ TexelObservations observe(const sim::Scene& scene, const Vec3d& p, double distan
 
 double rel(double a, double b) { return std::abs(a - b) / std::abs(b); }
 
-TEST(PhongFit, RecoversGlossyTexelOfTheSimulator) {
+class PhongSolvers : public ::testing::TestWithParam<PhongSolver> {};
+
+TEST_P(PhongSolvers, RecoverGlossyTexelOfTheSimulator) {
   auto scene = sim::make_scene("patchwork");
   ASSERT_TRUE(scene) << scene.error().describe();
   const Vec3d p(225, -225, 0);  // inside the glossy patch
@@ -42,7 +44,9 @@ TEST(PhongFit, RecoversGlossyTexelOfTheSimulator) {
 
   const TexelObservations obs = observe(*scene, p, 2500.0, 5.0);
   ASSERT_GT(obs.size(), 200u);
-  const PhongFit fit = fit_phong(obs, {});
+  PhongFitOptions options;
+  options.solver = GetParam();
+  const PhongFit fit = fit_phong(obs, options);
   ASSERT_EQ(fit.params.lobes.size(), 1u);
   for (int c = 0; c < 3; ++c) {
     EXPECT_LT(rel(fit.params.kd[c], truth->kd[c]), 0.02) << "Kd channel " << c;
@@ -52,6 +56,8 @@ TEST(PhongFit, RecoversGlossyTexelOfTheSimulator) {
   EXPECT_LT(rel(fit.params.lobes[0].shininess, truth->shininess), 0.05);
   for (int c = 0; c < 3; ++c) EXPECT_LT(fit.quality.mean_percent[c], 0.5);
 }
+
+INSTANTIATE_TEST_SUITE_P(DirectAndCeres, PhongSolvers, ::testing::Values(PhongSolver::kDirect, PhongSolver::kCeres));
 
 TEST(PhongFit, DiffuseTexelHasNoSpecularEnergy) {
   auto scene = sim::make_scene("patchwork");
@@ -84,6 +90,62 @@ TEST(PhongFit, TwoLobesFindBothHighlights) {
   }
   const PhongFit one = fit_phong(obs, {});
   EXPECT_LT(fit.quality.rms.sum(), 0.2 * one.quality.rms.sum());
+}
+
+// Relative residuals weigh every sample alike; on noise-free data they must reach the same parameters.
+TEST(PhongFit, RelativeResidualsRecoverTheGlossyTexel) {
+  auto scene = sim::make_scene("patchwork");
+  ASSERT_TRUE(scene);
+  const Vec3d p(225, -225, 0);
+  const auto truth = scene->phong_truth(p);
+  PhongFitOptions opt;
+  opt.residual = ResidualMode::kRelative;
+  const PhongFit fit = fit_phong(observe(*scene, p, 2500.0, 5.0), opt);
+  ASSERT_EQ(fit.params.lobes.size(), 1u);
+  EXPECT_TRUE(fit.converged);
+  EXPECT_LT(rad_to_deg(angle_between(fit.params.lobes[0].direction, truth->mirror_dir)), 1.0);
+  EXPECT_LT(rel(fit.params.lobes[0].shininess, truth->shininess), 0.05);
+  for (int c = 0; c < 3; ++c) EXPECT_LT(rel(fit.params.kd[c], truth->kd[c]), 0.02);
+}
+
+// phong:auto on the simulator's two-light scene: the BIC keeps two lobes, and they sit on both mirror directions.
+TEST(PhongAuto, ChoosesTwoLobesForTwoLights) {
+  sim::Scene scene = sim::make_scene("patchwork").value();
+  scene.lights.push_back({Vec3d(-1500, 1000, 2000), scene.lights[0].intensity * 0.4});
+  const Vec3d p(225, -225, 0);
+  const TexelObservations obs = observe(scene, p, 2500.0, 4.0);
+  const PhongFit fit = fit_phong_auto(obs, {});
+  ASSERT_EQ(fit.params.lobes.size(), 2u);
+  for (const auto& light : scene.lights) {
+    const Vec3d m = mirror_direction((light.position_mm - p).normalized(), Vec3d::UnitZ());
+    double best = 1e9;
+    for (const auto& lobe : fit.params.lobes) best = std::min(best, rad_to_deg(angle_between(lobe.direction, m)));
+    EXPECT_LT(best, 1.0);
+  }
+}
+
+// A single-light glossy texel and a diffuse one: one lobe is enough, the BIC does not buy more.
+TEST(PhongAuto, ChoosesOneLobeForOneLight) {
+  auto scene = sim::make_scene("patchwork");
+  ASSERT_TRUE(scene);
+  for (const Vec3d& p : {Vec3d(225, -225, 0), Vec3d(-225, -225, 0)}) {
+    const PhongFit fit = fit_phong_auto(observe(*scene, p, 2500.0, 5.0), {});
+    EXPECT_EQ(fit.params.lobes.size(), 1u) << p.transpose();
+  }
+  const auto truth = scene->phong_truth(Vec3d(225, -225, 0));
+  const PhongFit fit = fit_phong_auto(observe(*scene, Vec3d(225, -225, 0), 2500.0, 5.0), {});
+  ASSERT_FALSE(fit.params.lobes.empty());
+  EXPECT_LT(rad_to_deg(angle_between(fit.params.lobes[0].direction, truth->mirror_dir)), 1.0);
+}
+
+// BIC arithmetic: n ln(RSS / n) + p ln n, with the round-off floor.
+TEST(PhongAuto, BicFormula) {
+  EXPECT_NEAR(phong_bic(2.0, 100, 10, 1.0), 100 * std::log(0.02) + 10 * std::log(100.0), 1e-9);
+  EXPECT_EQ(phong_parameter_count(1, true), 9);  // Kd 3, Ks 3, direction 2 (unit), m 1
+  EXPECT_EQ(phong_parameter_count(2, true), 14);
+  EXPECT_EQ(phong_parameter_count(2, false), 15);
+  // Below the floor (1e-6 of the observed RMS) RSS differences do not count.
+  EXPECT_EQ(phong_bic(1e-20, 100, 10, 1.0), phong_bic(1e-30, 100, 10, 1.0));
 }
 
 }  // namespace

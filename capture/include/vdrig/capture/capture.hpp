@@ -1,9 +1,10 @@
 // Running a capture: drive the rig through a session's planned views, one exposure bracket per view, writing
 // every frame through the Session (so an interrupted run resumes at the first incomplete view).
 //
-// Never losing work: the journal is the truth (session.hpp). A view is marked complete only after all its frames
-// are journaled; a stop (request, full disk, device fault, SIGKILL) at any point leaves the session resumable and
-// run_capture on it again captures exactly the views not yet complete, each once.
+// Never losing work: the journal is the truth (session.hpp). A view is committed (its frame lines and its completion
+// line, in one journal append) only after all its frame files are durable; a stop (request, full disk, device fault,
+// SIGKILL) at any point leaves the session resumable and run_capture on it again captures exactly the views not yet
+// complete, each once.
 #pragma once
 
 #include <atomic>

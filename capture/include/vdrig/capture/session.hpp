@@ -2,9 +2,20 @@
 //
 //   SESSION/manifest.json   what was planned: format version, rig config, scheme, the planned views (direction,
 //                           pan/tilt target) and exposures, software version. Written once, atomically.
-//   SESSION/journal.jsonl   append-only, one JSON line per completed frame, written (and fsync'd) only after the
-//                           frame's image file is fsync'd and renamed into place. The journal is the truth: a frame
-//                           file without a journal line is an interrupted write and is ignored (and overwritten).
+//   SESSION/journal.jsonl   append-only JSON lines. A view's frames are committed together, once per view: every
+//                           frame file of the bracket is fsync'd, the frames/ folder is fsync'd once, and only then
+//                           the view's frame lines and its view_complete line are appended in ONE write() and the
+//                           journal is fsync'd once. The journal is the truth: a view counts only once its
+//                           view_complete line is durable, and that line is never written before every frame file
+//                           of the view (data and folder entry) is durable. A frame file without a journal line is
+//                           an interrupted view and is ignored (and overwritten when the view is captured again).
+//                           Events (faults, pauses) are separate one-line appends.
+//
+//   Why this is as safe as journaling every frame (it was three fsyncs per frame; now one per frame file plus two
+//   per view): a crash can only lose the view in hand, and that was already so, because a view without a durable
+//   view_complete line is recaptured whole on resume (its journaled frames were never used). What a completed view
+//   promises is unchanged: its frame files decode and hold what the lines say. A torn batch (crash mid-write) is
+//   a torn last line plus complete frame lines without a view_complete: dropped and ignored respectively on open.
 //   SESSION/frames/         view_VVVV_eEE.png (8-bit or 16-bit PNG, BGR codes as the camera delivered them).
 //   Later stages write their own subfolders (hdr/, calib/, obs/, maps/, renders/).
 #pragma once
@@ -88,19 +99,25 @@ class Session {
   bool view_complete(int view) const { return complete_views_.count(view) > 0; }
   int completed_view_count() const { return static_cast<int>(complete_views_.size()); }
 
-  /// Writes the image (atomically, fsync'd) and then appends + fsyncs its journal line.
+  /// Writes the frame's image file (PNG) and queues its record for the view's commit. The file's data is not yet
+  /// durable and the frame is not yet in frames() or the journal: mark_view_complete() commits the view. Frames of
+  /// another view still queued (an abandoned attempt) are dropped; a frame of the same view and bracket replaces the
+  /// queued one.
   Result<FrameRecord> append_frame(int view, int bracket_index, const Frame& frame, bool saturated);
-  /// Marks a view complete (journal line) with the number of frames of its bracket (brackets 0..frames-1; -1 =
-  /// unknown, for old journals); a view is only skipped on resume once it is complete.
+  /// Commits a view: fsyncs every queued frame file of the view, then the frames/ folder, then appends the frame
+  /// lines and the "view complete" line (number of frames of its bracket: brackets 0..frames-1; -1 = unknown, for
+  /// old journals) in one write and fsyncs the journal. A view is only skipped on resume once it is complete. On
+  /// failure nothing counts (the journal is cut back to its previous size) and the queue is kept, so the call can
+  /// be repeated.
   Status mark_view_complete(int view, int frames = -1);
   /// Frames recorded by a view's completion marker (-1 when unknown or incomplete).
   int view_frame_count(int view) const;
   /// Appends an informational journal line ({"type": "event", ...}): faults, pauses, resumptions.
   Status append_event(const nlohmann::json& event);
 
-  /// Test/fault-injection hook called before every file write of the session (frame image, journal line) with the
-  /// path about to be written; a failed Status is returned by that write as is (e.g. kNoSpace) and nothing is
-  /// written. Empty by default.
+  /// Test/fault-injection hook called before every file write of the session (frame image; journal append: one per
+  /// committed view and one per event) with the path about to be written; a failed Status is returned by that write as
+  /// is (e.g. kNoSpace) and nothing is written. Empty by default.
   using WriteHook = std::function<Status(const std::filesystem::path&)>;
   void set_write_hook(WriteHook hook) { write_hook_ = std::move(hook); }
   /// Loads a recorded frame's pixels (error if missing or undecodable).
@@ -111,12 +128,14 @@ class Session {
 
  private:
   Session() = default;
-  Status append_journal(const nlohmann::json& line);
+  /// Appends `text` (whole lines) in one write() and fsyncs; on failure the journal is cut back to its old size.
+  Status append_journal(const std::string& text);
 
   std::filesystem::path dir_;
   Manifest manifest_;
   std::vector<FrameRecord> frames_;
   std::map<int, int> complete_views_;  // view -> frame count (-1 unknown)
+  std::vector<FrameRecord> pending_;   // frames of the view in hand: files written, not yet committed
   WriteHook write_hook_;
 };
 

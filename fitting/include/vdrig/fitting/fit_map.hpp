@@ -1,10 +1,18 @@
 // Fitting a whole observation map, texel by texel, in parallel, into a ParameterMap.
+//
+// Models (ModelDescriptor): phong:K (fit_phong), phong:auto (fit_phong_auto: 1..4 lobes by BIC, a "lobes" channel,
+// the map stores the largest count chosen), sh-zh:N / sh-lsop:N / sh-ls:N (ShTexelFitter with the matching
+// ShFitMethod) and hsh:N (fit_hsh, least squares). Each texel is fitted on its own directions: with the camera at a
+// finite distance no two texels see a view from exactly the same direction, so there are no shared operators.
 #pragma once
 
 #include <functional>
+#include <vector>
 
+#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::fitting {
 
@@ -17,13 +25,19 @@ struct MapFitProgress {
 
 struct MapFitOptions {
   ModelDescriptor model;
-  PhongFitOptions phong;     // lobes/shininess sharing taken from `model`
+  PhongFitOptions phong;  // lobes/shininess sharing taken from `model`
+  ShFitOptions sh;        // SH: bands and method taken from `model`; window/smoothing used as given
+  HshFitOptions hsh;      // HSH: bands taken from `model`; method/window/smoothing used as given
+  /// Observation-map view indices left out of the fit (any order); their observations give holdout.R/G/B, the RMS
+  /// residual of the fitted model on them (0 where a texel has no held-out observation).
+  std::vector<int> held_out;
   int threads = 0;           // 0 = hardware concurrency
   int min_observations = 6;  // texels with fewer valid observations get zeros and n = their count
   std::function<void(const MapFitProgress&)> on_progress;  // called from worker threads, serialised
 };
 
-/// Fits every texel; the map's quality channels are filled (rms, mpe, n).
+/// Fits every texel; the map's quality channels are filled (rms, mpe, n over the fitted observations; holdout.*
+/// when views are held out). Invalid options are kInvalidArgument.
 Result<ParameterMap> fit_parameter_map(const ObservationMap& obs, const MapFitOptions& options);
 
 }  // namespace vdrig::fitting

@@ -64,6 +64,8 @@ class ObservationMap {
   uint8_t flag(int s, int t, int view) const { return flags_[index(s, t, view)]; }
   /// The valid observations of texel (s, t), optionally leaving out the views in `held_out` (sorted).
   TexelObservations texel(int s, int t, const std::vector<int>& held_out = {}) const;
+  /// One stored observation whatever its flag (radiance is zero where nothing was sampled); returns the flag.
+  uint8_t observation(int s, int t, int view, Eigen::Vector3f* rgb, Eigen::Vector3f* direction) const;
 
  private:
   size_t index(int s, int t, int view) const { return (static_cast<size_t>(t) * spec_.texels_s + s) * views_ + view; }
@@ -76,6 +78,12 @@ class ObservationMap {
 
 /// Samples one view into every texel of the map (view index `view`). Parallel over texel rows.
 void add_view(ObservationMap& map, int view, const ViewInput& input);
+
+/// The observation of texel (s, t) of a `spec` map in one view: radiance, direction toward the camera and flag.
+/// add_view and the streaming file writer (obsmap_file.hpp) both use it, so both give identical observations.
+/// `input.radiance_bgr` must be CV_32FC3.
+uint8_t observe_texel(const ObservationMapSpec& spec, const ViewInput& input, int s, int t, Eigen::Vector3f* rgb,
+                      Eigen::Vector3f* direction);
 
 /// Bilinear sample of a CV_32FC3 BGR image at sub-pixel (x, y) (pixel centres at integers); false outside.
 bool sample_bilinear(const cv::Mat& image_bgr, double x, double y, Eigen::Vector3f* rgb);

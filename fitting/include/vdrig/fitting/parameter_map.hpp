@@ -1,6 +1,8 @@
 // ParameterMap: a fitted model per texel, stored as one multi-channel OpenEXR file.
 //
 // Channels (float): Phong  kd.R kd.G kd.B, ks<k>.R/G/B, r<k>.x/y/z, m (shared) or m<k> (per lobe), k = 0..K-1;
+//                   phong:auto also "lobes" (the count chosen for the texel; its unused lobes are zero, K = the
+//                   largest count chosen anywhere);
 //                   SH / HSH  sh.R.<ii> / hsh.R.<ii> (coefficient index ii = l(l+1)+m, two digits), same for G, B.
 //   quality         rms.R/G/B (root mean square residual), mpe.R/G/B (mean percentage error), n (samples used),
 //                   holdout.R/G/B (RMS on held-out views, when views were held out).
@@ -17,12 +19,22 @@
 
 namespace vdrig::fitting {
 
+/// An SH (sh.hpp) or HSH (hsh.hpp) expansion of RGB radiance: coeffs is n^2 x 3 (column = channel).
+struct ShExpansion {
+  bool hemispherical = false;
+  Eigen::MatrixXd coeffs;
+
+  /// RGB radiance toward unit direction v (HSH: directions below the horizon are treated as on it).
+  Vec3d evaluate(const Vec3d& v) const;
+};
+
 inline constexpr int kParameterMapFormatVersion = 1;
 
 /// Which model a map holds.
 struct ModelDescriptor {
   std::string kind = "phong";  // "phong", "sh-zh", "sh-lsop", "sh-ls", "hsh"
-  int lobes = 1;               // Phong
+  int lobes = 1;               // Phong; 0 = "auto" not resolved yet
+  bool auto_lobes = false;     // phong:auto (the map stores `lobes` = the largest count chosen and a "lobes" channel)
   bool shared_shininess = true;
   int bands = 0;  // SH / HSH: n bands, n^2 coefficients per channel
 
@@ -53,6 +65,13 @@ class ParameterMap {
   void set_phong(int s, int t, const PhongParams& params);
   PhongParams phong(int s, int t) const;
   void set_quality(int s, int t, const FitQuality& q);
+  /// SH / HSH coefficients (n^2 x 3) of texel (s, t).
+  void set_sh(int s, int t, const Eigen::MatrixXd& coeffs);
+  ShExpansion sh(int s, int t) const;
+  /// Adds a zero channel if absent (e.g. holdout.R/G/B); existing channels are kept.
+  void add_channel(const std::string& name);
+  /// holdout.R/G/B of texel (s, t) (adds the channels when missing; not thread-safe then).
+  void set_holdout_rms(int s, int t, const Vec3d& rms);
 
   /// RGB radiance of texel (s, t) toward unit direction v (surface frame), whatever the model.
   Vec3d evaluate(int s, int t, const Vec3d& v) const;
@@ -63,9 +82,12 @@ class ParameterMap {
   static Result<ParameterMap> read(const std::filesystem::path& path);
 
  private:
+  void index_coefficients();
+
   ModelDescriptor model_;
   double width_mm_ = 0, height_mm_ = 0;
   ExrImage image_;
+  std::vector<int> coeff_channel_;  // SH / HSH: image channel of coefficient i of colour c at [c * n^2 + i]
 };
 
 }  // namespace vdrig::fitting

@@ -1,13 +1,15 @@
 // Modified Phong with K lobes, per colour channel c:   I_c(v) = Kd_c + sum_k Ks_kc max(0, v . r_k)^m_k
-// (design notes). With one lobe: 10 parameters (Kd RGB, Ks RGB, r xyz, m). m is shared by all lobes (as the source
-// method) or one per lobe.
+// (design notes). With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared by all
+// lobes (as the source method) or one per lobe.
 //
-// Fitting (fit_phong): non-linear least squares with Ceres, one residual block per texel holding every
-// observation (3 residuals each), automatic derivatives. Parameters: Kd, Ks >= 0 (bounds), r_k as (azimuth, zenith)
-// with zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by construction), log(m) in
+// Fitting (fit_phong): non-linear least squares, all observations of a texel at once (3 residuals each), analytic
+// derivatives, a bounded Levenberg-Marquardt that accumulates J^T J directly (phong.cpp; Ceres did the same with
+// ~3x the time in per-evaluation bookkeeping). Parameters: Kd, Ks >= 0 (bounds), r_k as (azimuth, zenith) with
+// zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by construction), log(m) in
 // [0, log(max_shininess)] (m >= 1; log keeps the steps in m proportional). Initialisation: r_0 at the brightest
 // observation, m by a coarse search (linear least squares for Kd, Ks at each candidate m); for K > 1 lobe k starts at
-// the peak of the previous fit's residual.
+// the peak of the previous fit's residual. Speed: 256 x 256 texels x 289 views of Phong-1 take ~24 s of CPU
+// (bench/phong_fit.cpp), i.e. ~12 s on 2 free cores.
 #pragma once
 
 #include <span>
@@ -37,8 +39,16 @@ enum class ResidualMode {
   kRelative,  // (I_model - I_observed) / (I_observed + floor): every sample weighs alike over the dynamic range
 };
 
+/// Which least-squares solver minimises the residuals (both see the same parameters, bounds and residuals).
+enum class PhongSolver {
+  kDirect,  // analytic Jacobian, bounded Levenberg-Marquardt on the normal equations of one texel (the default:
+            // ~4x less CPU per texel than Ceres here, where Ceres' per-problem setup dominates; bench_phong_fit)
+  kCeres,   // Ceres, automatic derivatives, one residual block per texel: the reference implementation
+};
+
 struct PhongFitOptions {
   int lobes = 1;  // 1..4
+  PhongSolver solver = PhongSolver::kDirect;
   bool shared_shininess = true;
   double max_shininess = 10000.0;
   int max_iterations = 100;
@@ -58,13 +68,27 @@ struct FitQuality {
 struct PhongFit {
   PhongParams params;
   FitQuality quality;
-  double cost = 0.0;  // 0.5 * sum of squared residuals (as Ceres)
+  double cost = 0.0;  // 0.5 * sum of squared (weighted) residuals
   bool converged = false;
 };
 
 /// Fits one texel. Needs at least (parameter count / 3 + 1) observations; otherwise returns a fit with Kd the mean
 /// and no lobe energy, converged = false.
 PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& options);
+
+/// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector), m (1
+/// shared or K): 9 for one lobe.
+int phong_parameter_count(int lobes, bool shared_shininess);
+
+/// Bayesian information criterion of a fit with `rss` (sum of squared residuals, as minimised) over n residuals
+/// and p parameters: n ln(RSS / n) + p ln n. `rss` is floored at n (1e-6 rms_observed)^2: the observations are
+/// float32 and far noisier than that, so smaller differences are round-off and must not buy lobes.
+double phong_bic(double rss, int residuals, int parameters, double rms_observed);
+
+/// phong:auto: fits K = 1, 2, ... max_lobes lobes (each starting from the previous fit, as fit_phong) and keeps
+/// adding a lobe while the BIC (phong_bic, n = 3 x observations) improves. `options.lobes` is ignored; the
+/// returned params hold the chosen number of lobes (at least 1 when the texel has enough observations).
+PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes = 4);
 
 /// Quality of any RGB model on observations.
 template <typename Model>

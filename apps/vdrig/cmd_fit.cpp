@@ -1,0 +1,121 @@
+// vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include "commands.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+
+namespace vdrig::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct FitArgs {
+  std::string session;
+  std::string model = "phong:1";
+  std::string resolution = "256x256";
+  std::string out;
+  int holdout = 0;
+  std::string residual = "absolute";
+  int threads = 0;
+};
+
+Result<std::pair<int, int>> parse_resolution(const std::string& r) {
+  const auto x = r.find('x');
+  try {
+    if (x != std::string::npos) {
+      size_t used_s = 0, used_t = 0;
+      const int s = std::stoi(r.substr(0, x), &used_s), t = std::stoi(r.substr(x + 1), &used_t);
+      if (used_s == x && used_t == r.size() - x - 1 && s >= 1 && t >= 1 && s <= 8192 && t <= 8192)
+        return std::make_pair(s, t);
+    }
+  } catch (const std::exception&) {
+  }
+  return make_error(ErrorCode::kInvalidArgument, "--res must be SxT texels (1..8192 each), e.g. 256x256; got " + r);
+}
+
+Status run_fit(const FitArgs& a) {
+  auto model = fitting::ModelDescriptor::parse(a.model);
+  if (!model) return model.error();
+  auto res = parse_resolution(a.resolution);
+  if (!res) return res.error();
+  if (a.residual != "absolute" && a.residual != "relative")
+    return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
+  auto session = capture::Session::open(a.session);
+  if (!session) return session.error();
+  const int n_views = static_cast<int>(session->manifest().views.size());
+  if (a.holdout < 0 || a.holdout >= n_views)
+    return make_error(ErrorCode::kInvalidArgument, "--holdout must be in [0, " + std::to_string(n_views - 1) + "]");
+
+  // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
+  // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
+  // them out of the fit itself.
+  fitting::MapFitOptions options;
+  options.model = model.value();
+  options.threads = a.threads;
+  options.phong.residual =
+      a.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
+  for (int k = 1; k <= a.holdout; ++k) options.held_out.push_back(n_views * k / (a.holdout + 1));
+
+  std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
+              options.held_out.size());
+  auto obs = pipeline::build_session_obsmap(session.value(), res->first, res->second);
+  if (!obs) return obs.error();
+
+  std::printf("fit %s\n", options.model.to_string().c_str());
+  options.on_progress = [](const fitting::MapFitProgress& p) {
+    std::printf("\r  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s   ", p.texels_done, p.texels_total,
+                100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s, p.eta_s);
+    std::fflush(stdout);
+  };
+  auto map = fitting::fit_parameter_map(obs.value(), options);
+  std::printf("\n");
+  if (!map) return map.error();
+  map->set_source_session(fs::absolute(a.session).string());
+  const fs::path out = a.out.empty() ? fs::path(a.session) / "maps" / (a.model + ".exr") : fs::path(a.out);
+  std::error_code ec;
+  if (out.has_parent_path()) fs::create_directories(out.parent_path(), ec);
+  VDRIG_TRY(map->write(out));
+
+  // Summary: median RMS over texels with a fit (and held-out RMS when views were held out).
+  auto median_of = [&](const char* prefix) {
+    std::vector<float> v;
+    for (int t = 0; t < map->texels_t(); ++t)
+      for (int s = 0; s < map->texels_s(); ++s)
+        if (map->at("n", s, t) > 0)
+          v.push_back((map->at(std::string(prefix) + "R", s, t) + map->at(std::string(prefix) + "G", s, t) +
+                       map->at(std::string(prefix) + "B", s, t)) /
+                      3.0f);
+    if (v.empty()) return 0.0f;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  std::printf("wrote %s (%s, %dx%d texels); median RMS %.4g", out.c_str(), map->model().to_string().c_str(),
+              map->texels_s(), map->texels_t(), median_of("rms."));
+  if (map->has("holdout.R")) std::printf(", median held-out RMS %.4g", median_of("holdout."));
+  std::printf("\n");
+  return Status::ok();
+}
+
+const CommandRegistrar kFit([](CLI::App& root) {
+  auto args = std::make_shared<FitArgs>();
+  auto* cmd = root.add_subcommand("fit", "Fit a reflectance model to every texel of a session -> parameter map (EXR)");
+  cmd->add_option("session", args->session, "session folder (with hdr/ merged)")->required();
+  cmd->add_option("--model", args->model, "phong:K | phong:auto | sh-zh:N | sh-lsop:N | sh-ls:N | hsh:N")
+      ->capture_default_str();
+  cmd->add_option("--res", args->resolution, "parameter map resolution, SxT texels")->capture_default_str();
+  cmd->add_option("--out", args->out, "output EXR (default SESSION/maps/<model>.exr)");
+  cmd->add_option("--holdout", args->holdout, "views held out of the fit; the map gets their RMS (holdout.R/G/B)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--residual", args->residual, "Phong residual: absolute | relative")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"absolute", "relative"}));
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->callback([args] { finish(run_fit(*args)); });
+});
+
+}  // namespace
+}  // namespace vdrig::app

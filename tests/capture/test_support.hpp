@@ -1,0 +1,125 @@
+// Helpers shared by the capture tests: per-process temporary folders, the small simulated rig, and a line-based
+// client for vdrigd's socket (docs/protocol.md).
+#pragma once
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "vdrig/rig/registry.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+
+namespace vdrig::capture::testing {
+
+/// A fresh folder under the system temp dir, unique per test process (`prefix` + name + pid); emptied if it exists.
+/// Not created: Session::create and the daemon create what they need.
+inline std::filesystem::path temp_dir(const std::string& name, const std::string& prefix = "vdrig_test_") {
+  const std::filesystem::path d =
+      std::filesystem::temp_directory_path() / (prefix + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(d);
+  return d;
+}
+
+/// temp_dir() removed again when the scope ends (also when an ASSERT returns early).
+class ScopedTempDir {
+ public:
+  explicit ScopedTempDir(const std::string& name, const std::string& prefix = "vdrig_test_")
+      : path_(temp_dir(name, prefix)) {}
+  ~ScopedTempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScopedTempDir(const ScopedTempDir&) = delete;
+  ScopedTempDir& operator=(const ScopedTempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+/// The simulator at 160x120 with one sample per pixel axis: fast enough for sessions of a hundred views.
+inline nlohmann::json small_sim_config() {
+  return sim::sim_rig_config(
+      {{"scene", "patchwork"},
+       {"samples_per_axis", 1},
+       {"camera", {{"width", 160}, {"height", 120}, {"fx", 200}, {"fy", 200}, {"cx", 79.5}, {"cy", 59.5}}}});
+}
+
+inline Result<rig::Rig> make_sim_rig(const nlohmann::json& config) {
+  rig::BackendRegistry registry;
+  sim::register_backends(registry);
+  return registry.make_rig(config);
+}
+
+/// Connects to a Unix stream socket; -1 (errno set) on failure.
+inline int connect_unix(const std::filesystem::path& socket_path) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return -1;
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string path = socket_path.string();
+  if (path.size() >= sizeof addr.sun_path) {
+    ::close(fd);
+    errno = ENAMETOOLONG;
+    return -1;
+  }
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int err = errno;
+    ::close(fd);
+    errno = err;
+    return -1;
+  }
+  return fd;
+}
+
+inline bool send_all(int fd, const std::string& bytes) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL);
+    if (n <= 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+/// Reads one line; nullopt when the connection closed (or nothing came within the timeout).
+inline std::optional<std::string> read_line(int fd, std::string& buffer, int timeout_ms = 5000) {
+  while (true) {
+    const size_t pos = buffer.find('\n');
+    if (pos != std::string::npos) {
+      std::string line = buffer.substr(0, pos);
+      buffer.erase(0, pos + 1);
+      return line;
+    }
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, timeout_ms) <= 0) return std::nullopt;
+    char buf[4096];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) return std::nullopt;
+    buffer.append(buf, static_cast<size_t>(n));
+  }
+}
+
+/// Sends a request and returns its reply, skipping pushed events; {"closed": true} when the connection ended and
+/// {"unparseable": LINE} for a reply that is not JSON.
+inline nlohmann::json request(int fd, std::string& buffer, const nlohmann::json& req, int timeout_ms = 5000) {
+  if (!send_all(fd, req.dump() + "\n")) return nlohmann::json{{"closed", true}};
+  while (true) {
+    auto line = read_line(fd, buffer, timeout_ms);
+    if (!line) return nlohmann::json{{"closed", true}};
+    nlohmann::json j = nlohmann::json::parse(*line, nullptr, false);
+    if (j.is_discarded()) return nlohmann::json{{"unparseable", *line}};
+    if (!j.contains("event")) return j;
+  }
+}
+
+}  // namespace vdrig::capture::testing
