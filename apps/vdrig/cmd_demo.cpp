@@ -46,19 +46,22 @@ Status run_demo(const DemoArgs& a) {
   std::printf("2/5 HDR merge of %d brackets -> %s\n", n_views, (session_dir / "hdr").c_str());
   VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
 
-  // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions.
-  std::vector<int> held_out, fit_views;
+  // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
+  // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
+  // ones out and measures itself on them (holdout.R/G/B).
+  std::vector<int> held_out;
   for (int k = 1; k <= a.holdout; ++k) held_out.push_back(n_views * k / (a.holdout + 1));
-  for (int v = 0; v < n_views; ++v)
-    if (std::find(held_out.begin(), held_out.end(), v) == held_out.end()) fit_views.push_back(v);
 
-  std::printf("3/5 observation map %dx%d from %zu views (%zu held out)\n", a.resolution, a.resolution, fit_views.size(),
+  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", a.resolution, a.resolution, n_views,
               held_out.size());
-  auto obs = pipeline::build_session_obsmap(session.value(), a.resolution, a.resolution, fit_views);
+  auto obs_path = pipeline::session_obsmap_file(session.value(), a.resolution, a.resolution);
+  if (!obs_path) return obs_path.error();
+  auto obs = fitting::ObsMapReader::open(obs_path.value());
   if (!obs) return obs.error();
 
   std::printf("4/5 fit phong:1 per texel\n");
   fitting::MapFitOptions fit_options;
+  fit_options.held_out = held_out;
   fit_options.on_progress = [](const fitting::MapFitProgress& p) {
     std::printf("\r    texels %d/%d, ETA %.0f s ", p.texels_done, p.texels_total, p.eta_s);
     std::fflush(stdout);

@@ -6,6 +6,7 @@
 #include "commands.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 
 namespace vdrig::app {
@@ -19,22 +20,12 @@ struct FitArgs {
   std::string out;
   int holdout = 0;
   std::string residual = "absolute";
+  bool shared_lights = false;
+  double smoothing = 0.0;
+  std::string window = "none";
+  std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
   int threads = 0;
 };
-
-Result<std::pair<int, int>> parse_resolution(const std::string& r) {
-  const auto x = r.find('x');
-  try {
-    if (x != std::string::npos) {
-      size_t used_s = 0, used_t = 0;
-      const int s = std::stoi(r.substr(0, x), &used_s), t = std::stoi(r.substr(x + 1), &used_t);
-      if (used_s == x && used_t == r.size() - x - 1 && s >= 1 && t >= 1 && s <= 8192 && t <= 8192)
-        return std::make_pair(s, t);
-    }
-  } catch (const std::exception&) {
-  }
-  return make_error(ErrorCode::kInvalidArgument, "--res must be SxT texels (1..8192 each), e.g. 256x256; got " + r);
-}
 
 Status run_fit(const FitArgs& a) {
   auto model = fitting::ModelDescriptor::parse(a.model);
@@ -57,12 +48,39 @@ Status run_fit(const FitArgs& a) {
   options.threads = a.threads;
   options.phong.residual =
       a.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
+  // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
+  const fitting::RingingWindow window = a.window == "hanning"   ? fitting::RingingWindow::kHanning
+                                        : a.window == "lanczos" ? fitting::RingingWindow::kLanczos
+                                                                : fitting::RingingWindow::kNone;
+  options.shared_lights = a.shared_lights;
+  options.sh.smoothing = options.hsh.smoothing = a.smoothing;
+  options.sh.window = options.hsh.window = window;
+  if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && options.model.kind == "phong")
+    return make_error(ErrorCode::kInvalidArgument, "--smoothing and --window apply to sh-* and hsh models only");
   for (int k = 1; k <= a.holdout; ++k) options.held_out.push_back(n_views * k / (a.holdout + 1));
 
-  std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
-              options.held_out.size());
-  auto obs = pipeline::build_session_obsmap(session.value(), res->first, res->second);
+  // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
+  // tile at a time, so memory stays bounded whatever --res is.
+  std::filesystem::path obsmap_path = a.obsmap;
+  if (obsmap_path.empty()) {
+    std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
+                options.held_out.size());
+    pipeline::ObsMapBuildOptions build;
+    build.on_view = [](int done, int total) {
+      std::printf("\r  views %d/%d   ", done, total);
+      std::fflush(stdout);
+    };
+    auto built = pipeline::session_obsmap_file(session.value(), res->first, res->second, build);
+    std::printf("\n");
+    if (!built) return built.error();
+    obsmap_path = built.value();
+  }
+  auto obs = fitting::ObsMapReader::open(obsmap_path);
   if (!obs) return obs.error();
+  if (obs->views() != n_views)
+    return make_error(ErrorCode::kInvalidArgument, obsmap_path.string() + " holds " + std::to_string(obs->views()) +
+                                                       " views, the session " + std::to_string(n_views));
+  std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s, obs->spec().texels_t);
 
   std::printf("fit %s\n", options.model.to_string().c_str());
   options.on_progress = [](const fitting::MapFitProgress& p) {
@@ -113,6 +131,18 @@ const CommandRegistrar kFit([](CLI::App& root) {
   cmd->add_option("--residual", args->residual, "Phong residual: absolute | relative")
       ->capture_default_str()
       ->check(CLI::IsMember({"absolute", "relative"}));
+  cmd->add_flag("--shared-lights", args->shared_lights,
+                "Phong: estimate the rig's lights from all texels and refit each texel's lobes toward them (sparse "
+                "view sets; the map gets a shared_lights channel)");
+  cmd->add_option("--smoothing", args->smoothing,
+                  "SH/HSH: Laplacian penalty lambda (e.g. 1e-4 for sparse or clustered directions)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--window", args->window, "SH-ZH/HSH: ringing window after the fit: none | hanning | lanczos")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "hanning", "lanczos"}));
+  cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
   cmd->callback([args] { finish(run_fit(*args)); });
 });

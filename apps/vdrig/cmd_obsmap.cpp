@@ -1,5 +1,6 @@
-// `vdrig obsmap info FILE` and `vdrig obsmap plot FILE --texel S,T --out plot.png`: inspect an observation-map
-// file (fitting/obsmap_file.hpp, format in docs/obsmap.md) a tile at a time, whatever its size.
+// `vdrig obsmap build SESSION --res SxT`: stream a session's HDR views into an observation-map file;
+// `vdrig obsmap info FILE` and `vdrig obsmap plot FILE --texel S,T --out plot.png`: inspect one (fitting/
+// obsmap_file.hpp, format in docs/obsmap.md) a tile at a time, whatever its size.
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -14,6 +15,7 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -22,6 +24,36 @@ Error usage(const std::string& m) { return make_error(ErrorCode::kInvalidArgumen
 
 const char* compression_name(fitting::ObsCompression c) {
   return c == fitting::ObsCompression::kZstd ? "zstd" : "none";
+}
+
+struct BuildArgs {
+  std::string session, resolution = "256x256", out, compression = "zstd";
+  int tile = 32;
+};
+
+Status run_build(const BuildArgs& a) {
+  auto res = parse_resolution(a.resolution);
+  if (!res) return res.error();
+  fitting::ObsFileOptions file;
+  file.tile_size = a.tile;
+  file.compression = a.compression == "none" ? fitting::ObsCompression::kNone : fitting::ObsCompression::kZstd;
+  std::string why;
+  if (!file.is_valid(&why)) return usage(why);
+  auto session = capture::Session::open(a.session);
+  if (!session) return session.error();
+  pipeline::ObsMapBuildOptions options;
+  options.file = file;
+  options.on_view = [](int done, int total) {
+    std::printf("\r  views %d/%d   ", done, total);
+    std::fflush(stdout);
+  };
+  const std::filesystem::path out =
+      a.out.empty() ? session->dir() / "obsmap" / (a.resolution + ".vdobs") : std::filesystem::path(a.out);
+  const Status built = pipeline::build_session_obsmap_file(session.value(), res->first, res->second, out, options);
+  std::printf("\n");
+  VDRIG_TRY(built);
+  std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
 }
 
 Status run_info(const std::string& path) {
@@ -167,8 +199,20 @@ Status run_plot(const std::string& path, const std::string& texel, const std::st
 }
 
 const CommandRegistrar registrar([](CLI::App& root) {
-  auto* obsmap = root.add_subcommand("obsmap", "inspect observation-map files (docs/obsmap.md)");
+  auto* obsmap = root.add_subcommand("obsmap", "build and inspect observation-map files (docs/obsmap.md)");
   obsmap->require_subcommand(1);
+  {
+    auto* cmd = obsmap->add_subcommand("build", "stream a session's HDR views into an observation-map file");
+    auto a = std::make_shared<BuildArgs>();
+    cmd->add_option("session", a->session, "session folder (with hdr/ merged)")->required();
+    cmd->add_option("--res", a->resolution, "texels, SxT")->capture_default_str();
+    cmd->add_option("--out", a->out, "file to write (default SESSION/obsmap/<res>.vdobs)");
+    cmd->add_option("--tile", a->tile, "texels per tile side")->capture_default_str();
+    cmd->add_option("--compression", a->compression, "zstd | none")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"zstd", "none"}));
+    cmd->callback([a] { finish(run_build(*a)); });
+  }
   {
     auto* cmd = obsmap->add_subcommand("info", "header, sizes and valid-observation statistics");
     auto file = std::make_shared<std::string>();

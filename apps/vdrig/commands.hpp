@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
+#include <utility>
 
 #include "vdrig/core/result.hpp"
 
@@ -21,6 +22,9 @@ struct CommandRegistrar {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;  // the work failed (device, I/O, data)
 inline constexpr int kExitUsage = 2;    // bad arguments or configuration
+
+/// Parses a texel resolution "SxT" (1..8192 each), e.g. "256x256"; kInvalidArgument with the reason otherwise.
+Result<std::pair<int, int>> parse_resolution(const std::string& text);
 
 /// Ends a subcommand: logs the error (if any) and throws CLI::RuntimeError with the matching exit code.
 void finish(const Status& status);

@@ -18,6 +18,20 @@ void finish(const Status& status) {
   throw CLI::RuntimeError(status.error().code == ErrorCode::kInvalidArgument ? kExitUsage : kExitFailure);
 }
 
+Result<std::pair<int, int>> parse_resolution(const std::string& r) {
+  const auto x = r.find('x');
+  try {
+    if (x != std::string::npos) {
+      size_t used_s = 0, used_t = 0;
+      const int s = std::stoi(r.substr(0, x), &used_s), t = std::stoi(r.substr(x + 1), &used_t);
+      if (used_s == x && used_t == r.size() - x - 1 && s >= 1 && t >= 1 && s <= 8192 && t <= 8192)
+        return std::make_pair(s, t);
+    }
+  } catch (const std::exception&) {
+  }
+  return make_error(ErrorCode::kInvalidArgument, "--res must be SxT texels (1..8192 each), e.g. 256x256; got " + r);
+}
+
 }  // namespace vdrig::app
 
 int main(int argc, char** argv) {

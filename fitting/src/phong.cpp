@@ -29,6 +29,17 @@ bool PhongFitOptions::is_valid(std::string* why) const {
   if (!(max_shininess > 1.0)) return fail("max_shininess must be > 1");
   if (max_iterations < 1) return fail("max_iterations must be >= 1");
   if (!(relative_floor > 0)) return fail("relative_floor must be > 0");
+  if (!fixed_directions.empty()) {
+    if (static_cast<int>(fixed_directions.size()) != lobes)
+      return fail("fixed_directions must hold one direction per lobe (" + std::to_string(lobes) + "), not " +
+                  std::to_string(fixed_directions.size()));
+    for (size_t k = 0; k < fixed_directions.size(); ++k) {
+      const Vec3d& d = fixed_directions[k];
+      if (!d.allFinite() || std::abs(d.norm() - 1.0) > 1e-6)
+        return fail("fixed_directions[" + std::to_string(k) + "] must be a unit vector (|d| - 1 within 1e-6)");
+      if (d.z() < 0.0) return fail("fixed_directions[" + std::to_string(k) + "] is below the horizon (z < 0)");
+    }
+  }
   return true;
 }
 
@@ -144,9 +155,11 @@ class PhongTexelCost {
 /// Jacobian, forming J^T J from it) took over half of a map fit; here J^T J is accumulated directly.
 /// Termination as Ceres': relative cost decrease < function_tolerance, step < parameter_tolerance (|p| + tol), or the
 /// projected gradient's max norm < gradient_tolerance. Returns true when one of them was met.
+/// Coordinates flagged in `fixed` are constants: their rows and columns are dropped from the normal equations.
 template <class Cost>
 bool minimise_bounded(const Cost& cost_fn, typename Cost::Vec& p, const typename Cost::Vec& lo,
-                      const typename Cost::Vec& hi, int max_iterations, double* final_cost) {
+                      const typename Cost::Vec& hi, const Eigen::Matrix<bool, Cost::kParams, 1>& fixed,
+                      int max_iterations, double* final_cost) {
   using Vec = typename Cost::Vec;
   using Mat = typename Cost::Mat;
   constexpr double kFunctionTolerance = 1e-10, kParameterTolerance = 1e-10, kGradientTolerance = 1e-14;
@@ -161,7 +174,7 @@ bool minimise_bounded(const Cost& cost_fn, typename Cost::Vec& p, const typename
     Eigen::Matrix<bool, Cost::kParams, 1> frozen;
     double proj_grad = 0.0;
     for (int j = 0; j < Cost::kParams; ++j) {
-      frozen[j] = (p[j] <= lo[j] && g[j] > 0.0) || (p[j] >= hi[j] && g[j] < 0.0);
+      frozen[j] = fixed[j] || (p[j] <= lo[j] && g[j] > 0.0) || (p[j] >= hi[j] && g[j] < 0.0);
       if (!frozen[j]) proj_grad = std::max(proj_grad, std::abs(g[j]));
     }
     if (proj_grad < kGradientTolerance) {
@@ -275,6 +288,7 @@ void initialise_lobe(const TexelObservations& obs, const PhongFitOptions& opt, P
   }
   Vec3d r0 = obs.direction[peak].cast<double>().normalized();
   if (r0.z() < 1e-3) r0 = Vec3d(r0.x(), r0.y(), 1e-3).normalized();
+  if (!opt.fixed_directions.empty()) r0 = opt.fixed_directions[params->lobes.size()].normalized();
   std::vector<double> log_c(n);
   for (size_t i = 0; i < n; ++i) {
     const double c = obs.direction[i].cast<double>().dot(r0);
@@ -339,14 +353,17 @@ struct PhongAutoDiffResiduals {
 
 template <int K, bool kShared, typename Vec>
 bool minimise_with_ceres(const TexelObservations& obs, const std::vector<double>& weight, Vec& p, const Vec& lo,
-                         const Vec& hi, int max_iterations, double* final_cost) {
+                         const Vec& hi, const std::vector<int>& fixed, int max_iterations, double* final_cost) {
   using Functor = PhongAutoDiffResiduals<K, kShared>;
   constexpr int n = Functor::kParams;
   ceres::Problem problem;
   auto* cost = new ceres::AutoDiffCostFunction<Functor, ceres::DYNAMIC, n>(new Functor{&obs, &weight},
                                                                            static_cast<int>(3 * obs.size()));
   problem.AddResidualBlock(cost, nullptr, p.data());
+  // Constant coordinates (fixed lobe directions) are left out of the tangent space; Ceres owns the manifold.
+  if (!fixed.empty()) problem.SetManifold(p.data(), new ceres::SubsetManifold(n, fixed));
   for (int j = 0; j < n; ++j) {
+    if (std::find(fixed.begin(), fixed.end(), j) != fixed.end()) continue;
     if (std::isfinite(lo[j])) problem.SetParameterLowerBound(p.data(), j, lo[j]);
     if (std::isfinite(hi[j])) problem.SetParameterUpperBound(p.data(), j, hi[j]);
   }
@@ -383,6 +400,21 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
     p[3 + 5 * K + (kShared ? 0 : k)] = std::log(std::clamp(l.shininess, 1.0, opt.max_shininess));
   }
   for (int j = 3 + 5 * K; j < Cost::kParams; ++j) hi[j] = std::log(opt.max_shininess);
+  // Fixed directions: (azimuth, zenith) of lobe k are constants (opt.fixed_directions holds at least K of them).
+  Eigen::Matrix<bool, Cost::kParams, 1> fixed = Eigen::Matrix<bool, Cost::kParams, 1>::Constant(false);
+  std::vector<int> fixed_indices;
+  const bool fixed_dirs = !opt.fixed_directions.empty();
+  if (fixed_dirs) {
+    for (int k = 0; k < K; ++k) {
+      const SphericalDir sd = spherical_from_direction(opt.fixed_directions[k]);
+      p[3 + 5 * k + 3] = sd.azimuth_rad;
+      p[3 + 5 * k + 4] = std::min(sd.zenith_rad, kPi / 2);
+      for (int j : {3 + 5 * k + 3, 3 + 5 * k + 4}) {
+        fixed[j] = true;
+        fixed_indices.push_back(j);
+      }
+    }
+  }
   std::vector<double> weight(3 * obs.size(), 1.0);
   if (opt.residual == ResidualMode::kRelative)
     for (size_t i = 0; i < obs.size(); ++i)
@@ -390,17 +422,19 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
   PhongFit fit;
   if (opt.solver == PhongSolver::kCeres) {
     p = p.cwiseMax(lo).cwiseMin(hi);
-    fit.converged = minimise_with_ceres<K, kShared>(obs, weight, p, lo, hi, opt.max_iterations, &fit.cost);
+    fit.converged =
+        minimise_with_ceres<K, kShared>(obs, weight, p, lo, hi, fixed_indices, opt.max_iterations, &fit.cost);
   } else {
     const Cost cost(&obs, std::move(weight));
-    fit.converged = minimise_bounded(cost, p, lo, hi, opt.max_iterations, &fit.cost);
+    fit.converged = minimise_bounded(cost, p, lo, hi, fixed, opt.max_iterations, &fit.cost);
   }
 
   for (int c = 0; c < 3; ++c) fit.params.kd[c] = p[c];
   for (int k = 0; k < K; ++k) {
     PhongLobe l;
     for (int c = 0; c < 3; ++c) l.ks[c] = p[3 + 5 * k + c];
-    l.direction = direction_from_spherical(p[3 + 5 * k + 3], p[3 + 5 * k + 4]);
+    l.direction = fixed_dirs ? opt.fixed_directions[k].normalized()
+                             : direction_from_spherical(p[3 + 5 * k + 3], p[3 + 5 * k + 4]);
     l.shininess = std::exp(p[3 + 5 * K + (kShared ? 0 : k)]);
     fit.params.lobes.push_back(l);
   }
@@ -457,7 +491,9 @@ PhongFit mean_only_fit(const TexelObservations& obs) {
 
 }  // namespace
 
-int phong_parameter_count(int lobes, bool shared_shininess) { return 3 + 5 * lobes + (shared_shininess ? 1 : lobes); }
+int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_directions) {
+  return 3 + (fixed_directions ? 3 : 5) * lobes + (shared_shininess ? 1 : lobes);
+}
 
 double phong_bic(double rss, int residuals, int parameters, double rms_observed) {
   const double n = std::max(1, residuals);
@@ -469,7 +505,7 @@ double phong_bic(double rss, int residuals, int parameters, double rms_observed)
 PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
   std::string why;
   VDRIG_CHECK(opt.is_valid(&why), why);
-  const size_t params = phong_parameter_count(opt.lobes, opt.shared_shininess);
+  const size_t params = phong_parameter_count(opt.lobes, opt.shared_shininess, !opt.fixed_directions.empty());
   if (obs.size() * 3 < params + 3) return mean_only_fit(obs);
   return fit_progressive(obs, opt, opt.lobes, [](int, const PhongFit&) { return true; });
 }
@@ -477,6 +513,8 @@ PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
 PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes) {
   PhongFitOptions opt = options;
   opt.lobes = std::clamp(max_lobes, 1, 4);
+  VDRIG_CHECK(opt.fixed_directions.empty(),
+              "fit_phong_auto does not take fixed_directions: fit the fixed-direction model with fit_phong");
   std::string why;
   VDRIG_CHECK(opt.is_valid(&why), why);
   if (obs.size() * 3 < static_cast<size_t>(phong_parameter_count(1, opt.shared_shininess)) + 3)

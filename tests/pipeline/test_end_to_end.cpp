@@ -74,5 +74,72 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   EXPECT_GT(bad->mean_abs_error, 10.0);
 }
 
+// The streamed observation-map file holds exactly the in-memory map's observations; SESSION/obsmap/ is reused while
+// current and rebuilt when an HDR view changes; a missing HDR view is an error that names the fix and leaves no file.
+TEST_F(EndToEnd, StreamedObservationMapFileMatchesTheInMemoryMap) {
+  CaptureRequest req;
+  req.out_dir = dir_ / "session";
+  req.rig_config = sim::sim_rig_config(
+      {{"scene", "patchwork"}, {"camera", {{"width", 160}, {"height", 120}, {"fx", 200.0}, {"fy", 200.0}}}});
+  req.scheme = "latlong:3";
+  req.exposures_s = {0.25};
+  auto session = capture_session(req);
+  ASSERT_TRUE(session) << session.error().describe();
+  ASSERT_TRUE(merge_session_hdr(session.value()));
+  const int n = static_cast<int>(session->manifest().views.size());
+  const std::vector<int> views = {n - 1, 0, 2};  // any subset, any order
+
+  auto in_memory = build_session_obsmap(session.value(), 20, 12, views);
+  ASSERT_TRUE(in_memory) << in_memory.error().describe();
+  ObsMapBuildOptions options;
+  options.views = views;
+  options.file.tile_size = 8;
+  int views_reported = 0;
+  options.on_view = [&](int done, int total) {
+    EXPECT_EQ(total, 3);
+    views_reported = done;
+  };
+  const fs::path file = dir_ / "subset.vdobs";
+  ASSERT_TRUE(build_session_obsmap_file(session.value(), 20, 12, file, options));
+  EXPECT_EQ(views_reported, 3);
+  auto reader = fitting::ObsMapReader::open(file);
+  ASSERT_TRUE(reader) << reader.error().describe();
+  auto streamed = reader->read_all();
+  ASSERT_TRUE(streamed);
+  ASSERT_EQ(streamed->views(), 3);
+  int valid = 0;
+  for (int t = 0; t < 12; ++t)
+    for (int s = 0; s < 20; ++s)
+      for (int v = 0; v < 3; ++v) {
+        Eigen::Vector3f a_rgb, a_dir, b_rgb, b_dir;
+        const uint8_t a = in_memory->observation(s, t, v, &a_rgb, &a_dir);
+        ASSERT_EQ(a, streamed->observation(s, t, v, &b_rgb, &b_dir)) << s << "," << t << " view " << v;
+        EXPECT_EQ(a_rgb, b_rgb);
+        EXPECT_EQ(a_dir, b_dir);
+        valid += a == fitting::kObsValid;
+      }
+  EXPECT_GT(valid, 20 * 12);  // the top view sees the whole surface
+
+  // The session's cached file: built once, reused, rebuilt after an HDR view changes.
+  auto cached = session_obsmap_file(session.value(), 20, 12);
+  ASSERT_TRUE(cached) << cached.error().describe();
+  EXPECT_EQ(cached.value(), session->dir() / "obsmap" / "20x12.vdobs");
+  const auto built_at = fs::last_write_time(cached.value());
+  ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
+  EXPECT_EQ(fs::last_write_time(cached.value()), built_at) << "a current file is reused";
+  const fs::path hdr0 = session->dir() / "hdr" / "view_0000.exr";
+  fs::last_write_time(hdr0, built_at + std::chrono::seconds(5));
+  ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
+  EXPECT_NE(fs::last_write_time(cached.value()), built_at) << "a newer HDR view makes it stale";
+
+  // A view without its HDR image: a clear error, and nothing at the output path.
+  fs::remove(hdr0);
+  const fs::path missing = dir_ / "missing.vdobs";
+  const Status failed = build_session_obsmap_file(session.value(), 20, 12, missing);
+  ASSERT_FALSE(failed);
+  EXPECT_NE(failed.error().message.find("vdrig hdr"), std::string::npos) << failed.error().message;
+  EXPECT_FALSE(fs::exists(missing));
+}
+
 }  // namespace
 }  // namespace vdrig::pipeline

@@ -10,7 +10,9 @@
 #include <vector>
 
 #include "vdrig/fitting/hsh.hpp"
+#include "vdrig/fitting/lights.hpp"
 #include "vdrig/fitting/obsmap.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/sh.hpp"
 
@@ -31,13 +33,28 @@ struct MapFitOptions {
   /// Observation-map view indices left out of the fit (any order); their observations give holdout.R/G/B, the RMS
   /// residual of the fitted model on them (0 where a texel has no held-out observation).
   std::vector<int> held_out;
+  /// Phong only: the lights are fixed to the platform and the surface is planar, so every texel's mirror directions
+  /// come from the same few lights. After the per-texel fits, estimate the lights from all texels' lobes
+  /// (estimate_point_lights, at most K lights for phong:K, 4 for phong:auto) and refit each texel with its lobes
+  /// held at the lights' mirror directions (fit_phong with fixed_directions), keeping whichever of the two fits has
+  /// the lower BIC. It makes Ks and m identifiable from sparse view sets (17 directions: the free fit of an m = 60
+  /// texel is exact with Ks 40 % off; the shared-lights fit is within 1 %), and a texel whose normal is not the
+  /// surface's (bumped patches) keeps its own fit. The map gets a "shared_lights" channel (1 where the refit won).
+  bool shared_lights = false;
+  LightEstimationOptions lights;
   int threads = 0;           // 0 = hardware concurrency
   int min_observations = 6;  // texels with fewer valid observations get zeros and n = their count
   std::function<void(const MapFitProgress&)> on_progress;  // called from worker threads, serialised
 };
 
 /// Fits every texel; the map's quality channels are filled (rms, mpe, n over the fitted observations; holdout.*
-/// when views are held out). Invalid options are kInvalidArgument.
+/// when views are held out). Invalid options are kInvalidArgument. Texels are fitted tile by tile (32 x 32).
 Result<ParameterMap> fit_parameter_map(const ObservationMap& obs, const MapFitOptions& options);
+
+/// The same from an observation-map file, one tile per worker thread in memory at a time (the file's tiles), so a
+/// map of any size is fitted with bounded memory: threads x tile^2 x views x 25 B for the observations plus the
+/// parameter map itself. Gives the same parameters as the in-memory overload on the same observations. A tile that
+/// cannot be read (kCorrupt, kIo) ends the fit with that error.
+Result<ParameterMap> fit_parameter_map(const ObsMapReader& obs, const MapFitOptions& options);
 
 }  // namespace vdrig::fitting

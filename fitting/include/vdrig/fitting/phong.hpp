@@ -8,11 +8,18 @@
 // zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by construction), log(m) in
 // [0, log(max_shininess)] (m >= 1; log keeps the steps in m proportional). Initialisation: r_0 at the brightest
 // observation, m by a coarse search (linear least squares for Kd, Ks at each candidate m); for K > 1 lobe k starts at
-// the peak of the previous fit's residual. Speed: 256 x 256 texels x 289 views of Phong-1 take ~24 s of CPU
-// (bench/phong_fit.cpp), i.e. ~12 s on 2 free cores.
+// the peak of the previous fit's residual.
+//
+// Fixed lobe directions (PhongFitOptions::fixed_directions): when the lobe directions are known from elsewhere (the
+// rig's lights are fixed to the platform and the surface is planar, so every texel's mirror directions follow from a
+// few point lights estimated over the whole map: lights.hpp), r_k is held at the given value and only Kd, Ks, m are
+// fitted. From sparse view sets (17 directions ~30 deg apart) a glossy lobe is seen by 2-3 samples and a free fit
+// trades r against Ks and m with no loss in residual; with r fixed, Ks and m become identifiable. Speed: 256 x 256
+// texels x 289 views of Phong-1 take ~24 s of CPU (bench/phong_fit.cpp), i.e. ~12 s on 2 free cores.
 #pragma once
 
 #include <span>
+#include <string>
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
@@ -54,6 +61,11 @@ struct PhongFitOptions {
   int max_iterations = 100;
   ResidualMode residual = ResidualMode::kAbsolute;
   double relative_floor = 1e-3;  // added to |observed| in kRelative mode
+  // Empty: the lobe directions are fitted. Otherwise exactly `lobes` directions (surface frame, unit within 1e-6 --
+  // they are renormalised -- with z >= 0): lobe k is held at fixed_directions[k] (initialised there too, with m by
+  // the coarse search and Kd, Ks by linear least squares) and only Kd, Ks, m are fitted, by either solver. Not
+  // allowed with fit_phong_auto (the lobe count is what it chooses; compare fits by phong_bic instead).
+  std::vector<Vec3d> fixed_directions = {};  // (the initialiser keeps designated initialisers warning-free)
 
   bool is_valid(std::string* why) const;
 };
@@ -76,9 +88,9 @@ struct PhongFit {
 /// and no lobe energy, converged = false.
 PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& options);
 
-/// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector), m (1
-/// shared or K): 9 for one lobe.
-int phong_parameter_count(int lobes, bool shared_shininess);
+/// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
+/// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed.
+int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_directions = false);
 
 /// Bayesian information criterion of a fit with `rss` (sum of squared residuals, as minimised) over n residuals
 /// and p parameters: n ln(RSS / n) + p ln n. `rss` is floored at n (1e-6 rms_observed)^2: the observations are
@@ -88,6 +100,7 @@ double phong_bic(double rss, int residuals, int parameters, double rms_observed)
 /// phong:auto: fits K = 1, 2, ... max_lobes lobes (each starting from the previous fit, as fit_phong) and keeps
 /// adding a lobe while the BIC (phong_bic, n = 3 x observations) improves. `options.lobes` is ignored; the
 /// returned params hold the chosen number of lobes (at least 1 when the texel has enough observations).
+/// `options.fixed_directions` must be empty (VDRIG_CHECK): fit fixed-direction models with fit_phong.
 PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes = 4);
 
 /// Quality of any RGB model on observations.

@@ -2,6 +2,7 @@
 // run alone (vdrig hdr / obsmap / fit / render) or all at once (vdrig demo).
 //
 //   SESSION/hdr/view_VVVV.exr     merged bracket of each view (calib::HdrImage)
+//   SESSION/obsmap/SxT.vdobs      observation maps (fitting/obsmap_file.hpp), kept for further fits
 //   SESSION/maps/<model>.exr      parameter maps (fitting::ParameterMap)
 //   SESSION/renders/              headless renders, photographs and difference images
 #pragma once
@@ -16,6 +17,7 @@
 #include "vdrig/capture/session.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/obsmap.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/rig/registry.hpp"
 
 namespace vdrig::pipeline {
@@ -78,9 +80,28 @@ struct GeometryCalibration {
 Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& session,
                                                        const GeometryCalibrationOptions& options = {});
 
-/// Builds the observation map of a session (views listed in `views`, or all when empty).
+/// Builds the observation map of a session in memory (views listed in `views`, or all when empty; view i of the map
+/// is views[i]). Needs S x T x views x 25 B: for small maps (tests, the demo). Large maps: build_session_obsmap_file.
 Result<fitting::ObservationMap> build_session_obsmap(const capture::Session& session, int texels_s, int texels_t,
                                                      const std::vector<int>& views = {});
+
+struct ObsMapBuildOptions {
+  std::vector<int> views;  // session view indices; empty = every view of the manifest. View i of the file = views[i].
+  fitting::ObsFileOptions file;
+  std::function<void(int done, int total)> on_view;
+};
+/// Streams the session's HDR views into an observation-map file (fitting/obsmap_file.hpp, docs/obsmap.md): one HDR
+/// image and one view's observations in memory at a time, so any resolution builds with bounded memory. Nothing is
+/// at `path` unless it succeeds. Errors: an unreadable HDR view (kNotFound/kCorrupt: run `vdrig hdr` first), a full
+/// disk (kNoSpace), invalid sizes (kInvalidArgument).
+Status build_session_obsmap_file(const capture::Session& session, int texels_s, int texels_t,
+                                 const std::filesystem::path& path, const ObsMapBuildOptions& options = {});
+
+/// SESSION/obsmap/<S>x<T>.vdobs over every view, built (build_session_obsmap_file) unless a file is there that is
+/// still current: same size and view count, and newer than every HDR view and the geometric calibration (calib/),
+/// so fitting several models at one resolution samples the views once. Returns the file's path.
+Result<std::filesystem::path> session_obsmap_file(const capture::Session& session, int texels_s, int texels_t,
+                                                  const ObsMapBuildOptions& options = {});
 
 /// Renders the map from a session view's pose; writes render, photograph and |difference| PNGs to out_dir and
 /// returns the mean absolute difference in 8-bit code units over `region` (non-zero pixels), or all pixels.
