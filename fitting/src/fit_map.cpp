@@ -9,6 +9,8 @@
 #include <mutex>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/lights.hpp"
 
@@ -296,6 +298,7 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
   // them; the refit replaces the free fit where its BIC is lower (it has 2 parameters fewer per lobe, so it wins
   // wherever it fits as well, and loses where the texel's normal or light differs, e.g. a bumpy patch).
   int texels_on_lights = 0;
+  std::string lights_attribute;
   if (shared_lights) {
     LightEstimationOptions light_options = options.lights;
     light_options.max_lights = std::min(light_options.max_lights, r.auto_lobes ? 4 : r.phong.lobes);
@@ -305,6 +308,11 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
     if (lights->empty()) {
       logger->warn("shared lights: no light explains enough texels' lobes; every texel keeps its own fit");
     } else {
+      for (const EstimatedLight& l : lights.value()) {
+        const Vec3d& v = l.at_infinity ? l.direction : l.position_mm;
+        lights_attribute += fmt::format("{}{} {:.3f} {:.3f} {:.3f}", lights_attribute.empty() ? "" : "; ",
+                                        l.at_infinity ? "direction" : "point", v.x(), v.y(), v.z());
+      }
       for (const EstimatedLight& l : lights.value())
         if (l.at_infinity)
           logger->info("shared lights: distant light toward ({:.3f}, {:.3f}, {:.3f}), {} texel lobes, rms {:.2f} deg",
@@ -348,7 +356,10 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
     for (const auto& st : staged) map_model.lobes = std::max(map_model.lobes, static_cast<int>(st.params.lobes.size()));
   }
   map = ParameterMap(map_model, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
-  if (shared_lights) map.add_channel("shared_lights");
+  if (shared_lights) {
+    map.add_channel("shared_lights");
+    map.image().string_attributes["vdrig.shared_lights"] = lights_attribute;
+  }
   for (int i = 0; i < total; ++i) {
     const int s = i % spec.texels_s, t = i / spec.texels_s;
     map.set_phong(s, t, staged[i].params);

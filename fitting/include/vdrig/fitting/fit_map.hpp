@@ -39,7 +39,9 @@ struct MapFitOptions {
   /// held at the lights' mirror directions (fit_phong with fixed_directions), keeping whichever of the two fits has
   /// the lower BIC. It makes Ks and m identifiable from sparse view sets (17 directions: the free fit of an m = 60
   /// texel is exact with Ks 40 % off; the shared-lights fit is within 1 %), and a texel whose normal is not the
-  /// surface's (bumped patches) keeps its own fit. The map gets a "shared_lights" channel (1 where the refit won).
+  /// surface's (bumped patches) keeps its own fit. The map gets a "shared_lights" channel (1 where the refit won) and
+  /// a header attribute "vdrig.shared_lights" listing the lights found, "; "-separated, each "point X Y Z" (surface
+  /// frame, mm) or "direction X Y Z" (unit, toward a light at infinity); empty when none was found.
   bool shared_lights = false;
   LightEstimationOptions lights;
   int threads = 0;           // 0 = hardware concurrency
