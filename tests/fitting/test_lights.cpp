@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "rig_observations.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/fitting/lights.hpp"
 #include "vdrig/fitting/phong.hpp"
@@ -190,45 +191,14 @@ TEST(EstimatePointLights, RejectsInvalidOptionsAndToleratesTooFewRays) {
 
 // --- Phong fits with the lobe direction fixed, from 17 view directions -------------------------------------------
 
-std::vector<Vec3d> scheme(const std::string& spec) {
-  auto set = capture::generate(spec);
-  EXPECT_TRUE(set) << spec;
-  return set ? set->directions : std::vector<Vec3d>{};
-}
-
-/// As test_source_comparisons.cpp: for each scheme direction the camera pose of rig::surface_pose at 2500 mm, the
-/// view direction from the texel to the camera centre, and the scene's exact radiance toward it.
+std::vector<Vec3d> scheme(const std::string& spec) { return test_support::scheme_directions(spec); }
 TexelObservations observe(const sim::Scene& scene, const Vec3d& p, const std::vector<Vec3d>& dirs) {
-  rig::RigGeometry geometry;
-  geometry.camera_distance_mm = 2500.0;
-  TexelObservations obs;
-  for (const Vec3d& d : dirs) {
-    const SphericalDir s = spherical_from_direction(d);
-    const ViewPose pose = rig::surface_pose(geometry, {kPi / 2 - s.azimuth_rad, s.zenith_rad});
-    const Vec3d v = pose.view_direction(p);
-    obs.direction.push_back(v.cast<float>());
-    obs.radiance.push_back(scene.radiance(p, v).cast<float>());
-    obs.view.push_back(static_cast<int>(obs.view.size()));
-  }
-  return obs;
+  return test_support::observe_texel(scene, p, dirs);
 }
 
-double rel(double a, double b) { return std::abs(a - b) / std::abs(b); }
-
-struct Errors {
-  double kd = 0, ks = 0, m = 0, r_deg = 0;
-};
-Errors errors(const PhongFit& fit, const sim::PhongTruth& truth) {
-  if (fit.params.lobes.empty()) return {1e9, 1e9, 1e9, 1e9};
-  Errors e;
-  for (int c = 0; c < 3; ++c) {
-    e.kd = std::max(e.kd, rel(fit.params.kd[c], truth.kd[c]));
-    e.ks = std::max(e.ks, rel(fit.params.lobes[0].ks[c], truth.ks[c]));
-  }
-  e.m = rel(fit.params.lobes[0].shininess, truth.shininess);
-  e.r_deg = rad_to_deg(angle_between(fit.params.lobes[0].direction, truth.mirror_dir));
-  return e;
-}
+using test_support::Errors;
+using test_support::errors;
+using test_support::rel;
 
 TEST(FixedDirections, OptionsAreValidated) {
   PhongFitOptions o;

@@ -3,6 +3,7 @@
 
 #include <random>
 
+#include "rig_observations.hpp"
 #include "vdrig/fitting/phong.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -10,29 +11,20 @@
 namespace vdrig::fitting {
 namespace {
 
-/// Observations of surface point p from camera positions over a latitude-longitude set of directions, as a rig at
-/// `distance_mm` sees it (each view direction is the one from p to the camera centre, not the nominal one).
+/// Observations of surface point p from a latitude-longitude set of nominal directions (zenith 0..80 deg in
+/// `zenith_step_deg` steps, about as many azimuths per ring as its circumference allows), as a rig at `distance_mm`
+/// sees it (test_support::observe_texel).
 TexelObservations observe(const sim::Scene& scene, const Vec3d& p, double distance_mm, double zenith_step_deg) {
-  TexelObservations obs;
-  rig::RigGeometry geometry;
-  geometry.camera_distance_mm = distance_mm;
+  std::vector<Vec3d> nominal;
   for (double zen = 0; zen <= 80.0 + 1e-9; zen += zenith_step_deg) {
     const int count =
         zen == 0 ? 1 : std::max(1, static_cast<int>(std::round(360.0 / zenith_step_deg * std::sin(deg_to_rad(zen)))));
-    for (int a = 0; a < count; ++a) {
-      const Vec3d nominal = direction_from_spherical(2 * kPi * a / count, deg_to_rad(zen));
-      const ViewPose pose =
-          rig::surface_pose(geometry, {kPi / 2 - spherical_from_direction(nominal).azimuth_rad, deg_to_rad(zen)});
-      const Vec3d v = pose.view_direction(p);
-      obs.direction.push_back(v.cast<float>());
-      obs.radiance.push_back(scene.radiance(p, v).cast<float>());
-      obs.view.push_back(static_cast<int>(obs.view.size()));
-    }
+    for (int a = 0; a < count; ++a) nominal.push_back(direction_from_spherical(2 * kPi * a / count, deg_to_rad(zen)));
   }
-  return obs;
+  return test_support::observe_texel(scene, p, nominal, distance_mm);
 }
 
-double rel(double a, double b) { return std::abs(a - b) / std::abs(b); }
+using test_support::rel;
 
 class PhongSolvers : public ::testing::TestWithParam<PhongSolver> {};
 

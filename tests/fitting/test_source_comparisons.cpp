@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "rig_observations.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/hsh.hpp"
@@ -24,44 +25,15 @@ namespace {
 
 const Vec3d kGlossyTexel(225, -225, 0);  // patchwork's glossy plastic patch, m = 60
 
-std::vector<Vec3d> scheme(const std::string& spec) {
-  auto set = capture::generate(spec);
-  EXPECT_TRUE(set) << spec;
-  return set ? set->directions : std::vector<Vec3d>{};
-}
-
+std::vector<Vec3d> scheme(const std::string& spec) { return test_support::scheme_directions(spec); }
 TexelObservations observe(const sim::Scene& scene, const Vec3d& p, const std::vector<Vec3d>& dirs) {
-  rig::RigGeometry geometry;
-  geometry.camera_distance_mm = 2500.0;
-  TexelObservations obs;
-  for (const Vec3d& d : dirs) {
-    const SphericalDir s = spherical_from_direction(d);
-    const ViewPose pose = rig::surface_pose(geometry, {kPi / 2 - s.azimuth_rad, s.zenith_rad});
-    const Vec3d v = pose.view_direction(p);
-    obs.direction.push_back(v.cast<float>());
-    obs.radiance.push_back(scene.radiance(p, v).cast<float>());
-    obs.view.push_back(static_cast<int>(obs.view.size()));
-  }
-  return obs;
+  return test_support::observe_texel(scene, p, dirs);
 }
+using test_support::observe_map;
 
-double rel(double a, double b) { return std::abs(a - b) / std::abs(b); }
-
-/// Worst relative errors of a Phong-1 fit against the truth.
-struct Errors {
-  double kd = 0, ks = 0, r_deg = 0, m = 0;
-};
-Errors errors(const PhongFit& fit, const sim::PhongTruth& truth) {
-  Errors e;
-  if (fit.params.lobes.empty()) return {1e9, 1e9, 1e9, 1e9};
-  for (int c = 0; c < 3; ++c) {
-    e.kd = std::max(e.kd, rel(fit.params.kd[c], truth.kd[c]));
-    e.ks = std::max(e.ks, rel(fit.params.lobes[0].ks[c], truth.ks[c]));
-  }
-  e.r_deg = rad_to_deg(angle_between(fit.params.lobes[0].direction, truth.mirror_dir));
-  e.m = rel(fit.params.lobes[0].shininess, truth.shininess);
-  return e;
-}
+using test_support::Errors;
+using test_support::errors;
+using test_support::rel;
 
 /// RMS error of a linear fit against the true radiance over icosahedron:4 up to 80 deg zenith, relative to the
 /// texel's maximum there.
@@ -147,18 +119,6 @@ TEST(SourceComparisons, SeventeenDirectionsPhong1) {
 // (measured: Ks 0.22 %, m 0.07 %, r 0.005 deg) and for every band texel whose highlight reaches 1 % of its peak at
 // one of the 17 samples at least (up to m = 103 here; beyond, the data hold no highlight to fit). Each band texel must
 // also have been refitted on the lights, and a wrongly placed light would show in r (asserted to 0.1 deg).
-ObservationMap observe_map(const sim::Scene& scene, const std::vector<Vec3d>& dirs, int S, int T) {
-  ObservationMapSpec spec{S, T, scene.width_mm, scene.height_mm};
-  ObservationMap map(spec, static_cast<int>(dirs.size()));
-  for (int t = 0; t < T; ++t)
-    for (int s = 0; s < S; ++s) {
-      const TexelObservations obs = observe(scene, texel_centre_mm(s, t, S, T, scene.width_mm, scene.height_mm), dirs);
-      for (size_t v = 0; v < obs.size(); ++v)
-        map.set(s, t, static_cast<int>(v), obs.radiance[v], obs.direction[v], kObsValid);
-    }
-  return map;
-}
-
 TEST(SourceComparisons, SeventeenDirectionsPhong1WithSharedLights) {
   const auto dirs = scheme("icosahedron:1");
   ASSERT_EQ(dirs.size(), 17u);
