@@ -1,0 +1,121 @@
+// Light probes: HDR radiance seen from one point in every direction, as a latitude-longitude map (docs/probe.md).
+//
+// Conventions (../shared/design-notes.md): column i of a W x H map looks at azimuth 2 pi (i + 0.5) / W (from +x
+// toward +y), row j at zenith pi (j + 0.5) / H (row 0 looks along +z); row j's pixels subtend
+// latlong_pixel_solid_angle(j, W, H) sr each. Directions here are in the probe's own frame unless a name says world.
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/core/result.hpp"
+
+namespace vdrig::probe {
+
+/// Linear RGB triple (radiance, irradiance or power; R, G, B in that order).
+using Rgb = Eigen::Vector3d;
+
+/// Relative luminance of linear RGB (Rec. 709 / sRGB primaries), the "energy" of the median cut.
+inline double luminance(const Rgb& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
+
+/// `Probe`: one light probe. A lat-long HDR radiance map in the design notes' layout (see the file comment), the
+/// probe's pose in the world, and optionally the distance to the scene behind every pixel.
+///  - radiance: CV_32FC3, H x W with W = 2 H, channels in R, G, B order (NOT OpenCV's BGR), linear, >= 0.
+///  - position_mm: centre of the probe in the world (mm); rotation: probe frame -> world, d_world = R d_probe.
+///  - depth_mm: CV_32FC1 of the same size, distance (mm) from position_mm along each pixel's direction to the
+///    first surface; empty when unknown (a real probe photographed without a scene model).
+struct Probe {
+  cv::Mat radiance;
+  Vec3d position_mm = Vec3d::Zero();
+  Mat3d rotation = Mat3d::Identity();
+  cv::Mat depth_mm;
+
+  int width() const { return radiance.cols; }
+  int height() const { return radiance.rows; }
+  bool has_depth() const { return !depth_mm.empty(); }
+  /// Radiance of pixel (i, j) (column, row). No bounds check beyond OpenCV's debug asserts.
+  Rgb pixel(int i, int j) const {
+    const cv::Vec3f& v = radiance.at<cv::Vec3f>(j, i);
+    return {v[0], v[1], v[2]};
+  }
+};
+
+/// A W x H (W = 2 H) probe filled with zero radiance at the origin; VDRIG_CHECKs H >= 1.
+Probe make_probe(int height);
+
+/// How the columns of an equirectangular file map to azimuth.
+enum class FileAzimuth {
+  /// The usual panorama layout (HDRI Haven, Blender's equirectangular environment texture): seen from inside, the
+  /// image runs left to right as the view turns right, i.e. clockwise seen from above. Blender maps direction d
+  /// to u = 0.5 - atan2(d.y, d.x) / 2 pi, so the centre column looks along +x. Loading mirrors the columns so the
+  /// probe frame is Blender's world frame: vdrig column i = (W / 2 - 1 - c) mod W for file column c.
+  kPanorama,
+  /// Already in the design notes' layout (column i at azimuth 2 pi (i + 0.5) / W), e.g. written by save_probe.
+  kDesignNotes,
+};
+
+struct LoadOptions {
+  FileAzimuth azimuth = FileAzimuth::kPanorama;
+  /// Resample to this width (height width / 2) after loading; 0 keeps the file's size.
+  int width = 0;
+};
+
+/// Loads an equirectangular OpenEXR light probe with channels R, G, B (any pixel type), row 0 looking up. Files
+/// written by save_probe (attribute "vdrig.probe.version") are read in the design notes' layout with their pose and
+/// depth whatever options.azimuth says. Errors: kNotFound (missing file), kCorrupt (unreadable EXR, missing R/G/B,
+/// non-finite pixels), kInvalidArgument (not 2:1, or options.width odd or < 2 but not 0). Negative values (DWA
+/// compression ringing around zero) are clamped to 0 and counted in the log.
+Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options = {});
+
+/// Writes the probe as float OpenEXR in the design notes' layout: channels R, G, B (+ "Z" = depth in mm when
+/// present) and attributes vdrig.probe.version = 1, vdrig.probe.layout = "design-notes", position and rotation.
+Status save_probe(const std::filesystem::path& path, const Probe& probe);
+
+/// The probe resampled to `width` x width / 2 (width even, >= 2). Shrinking by an integer factor averages each
+/// block weighted by solid angle, which keeps total_power exactly; other shrink factors use OpenCV's box-weighted
+/// area averaging; enlarging uses bilinear lookup (radiance_at). Depth is resampled the same way.
+Probe resample(const Probe& probe, int width);
+
+/// Radiance in direction `dir` (probe frame, any non-zero length): bilinear between the four nearest pixel centres,
+/// wrapping in azimuth and clamping to the first/last row beyond the outermost row centres.
+Rgb radiance_at(const Probe& probe, const Vec3d& dir);
+
+/// Total incident "power" of the map: integral of L over the sphere, sum of L(pixel) * solid angle(pixel) (sr * L).
+Rgb total_power(const Probe& probe);
+
+/// Sum of solid angles over all pixels (4 pi up to rounding); a self-check of the quadrature.
+double total_solid_angle(const Probe& probe);
+
+/// Brightest pixel by luminance: its column, row and direction through the pixel centre.
+struct BrightestPixel {
+  int column = 0;
+  int row = 0;
+  Vec3d direction = Vec3d::UnitZ();
+  Rgb radiance = Rgb::Zero();
+};
+BrightestPixel brightest_pixel(const Probe& probe);
+
+/// Brute-force irradiance E(n) = integral of L(w) max(0, n . w) dw, summed over every pixel of the map (at its
+/// centre direction, with the pixel's exact solid angle). Built once per map, then O(pixels) per normal.
+/// `max_width` > 0 first resamples the map down to that width (resample): E is a cosine-weighted integral, so a
+/// 256-wide map changes it little while being 16x cheaper than 1024 (test_probe measures how little).
+class IrradianceIntegrator {
+ public:
+  explicit IrradianceIntegrator(const Probe& probe, int max_width = 0);
+  /// E(n) for a unit normal n in the probe frame.
+  Rgb irradiance(const Vec3d& normal) const;
+  int width() const { return width_; }
+
+ private:
+  int width_ = 0;
+  std::vector<float> dirs_;      // 3 per pixel
+  std::vector<float> weighted_;  // L * solid angle, 3 per pixel
+};
+
+/// `count` unit vectors spread evenly over the sphere (Fibonacci spiral), for tests and benchmarks.
+std::vector<Vec3d> fibonacci_directions(int count);
+
+}  // namespace vdrig::probe

@@ -1,0 +1,55 @@
+#include "vdrig/probe/sh_irradiance.hpp"
+
+namespace vdrig::probe {
+
+std::array<double, kSh9Count> sh9_basis(const Vec3d& d) {
+  // K_l^m (with sqrt 2 for m != 0) times the Condon-Shortley-phased Legendre polynomials, as in fitting/sh.hpp.
+  const double x = d.x(), y = d.y(), z = d.z();
+  constexpr double k0 = 0.28209479177387814;   // 1 / (2 sqrt(pi))
+  constexpr double k1 = 0.48860251190291992;   // sqrt(3 / (4 pi))
+  constexpr double k2 = 1.0925484305920792;    // sqrt(15 / (4 pi))
+  constexpr double k20 = 0.31539156525252005;  // sqrt(5 / (16 pi))
+  constexpr double k22 = 0.54627421529603959;  // sqrt(15 / (16 pi))
+  return {
+      k0, -k1 * y, k1 * z, -k1 * x, k2 * x * y, -k2 * y * z, k20 * (3 * z * z - 1), -k2 * x * z, k22 * (x * x - y * y)};
+}
+
+double sh9_cosine_factor(int band) {
+  VDRIG_CHECK(band >= 0 && band <= 2, "SH-9 has bands 0..2");
+  constexpr double a[3] = {kPi, 2.0 * kPi / 3.0, kPi / 4.0};
+  return a[band];
+}
+
+Sh9 project_sh9(const Probe& probe) {
+  const int W = probe.width(), H = probe.height();
+  Sh9 out;
+  for (auto& c : out.coeffs) c.setZero();
+  for (int j = 0; j < H; ++j) {
+    const double sa = latlong_pixel_solid_angle(j, W, H);
+    std::array<Rgb, kSh9Count> row{};
+    for (auto& c : row) c.setZero();
+    for (int i = 0; i < W; ++i) {
+      const Rgb c = probe.pixel(i, j);
+      const auto y = sh9_basis(latlong_direction(i, j, W, H));
+      for (int k = 0; k < kSh9Count; ++k) row[k] += y[k] * c;
+    }
+    for (int k = 0; k < kSh9Count; ++k) out.coeffs[k] += sa * row[k];
+  }
+  return out;
+}
+
+Rgb sh9_irradiance(const Sh9& radiance, const Vec3d& normal) {
+  const auto y = sh9_basis(normal);
+  Rgb e = Rgb::Zero();
+  for (int k = 0; k < kSh9Count; ++k) e += sh9_cosine_factor(sh9_band(k)) * y[k] * radiance.coeffs[k];
+  return e;
+}
+
+Rgb sh9_radiance(const Sh9& radiance, const Vec3d& dir) {
+  const auto y = sh9_basis(dir);
+  Rgb e = Rgb::Zero();
+  for (int k = 0; k < kSh9Count; ++k) e += y[k] * radiance.coeffs[k];
+  return e;
+}
+
+}  // namespace vdrig::probe

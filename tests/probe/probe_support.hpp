@@ -1,0 +1,92 @@
+// Helpers shared by the probe tests: synthetic maps and the real probes in ../shared/data/probes.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vdrig/probe/probe.hpp"
+
+namespace vdrig::probe::testing {
+
+inline const char* const kRealProbes[] = {"courtyard", "interior", "studio"};
+
+inline std::filesystem::path real_probe_path(const std::string& name) {
+  return std::filesystem::path(VDRIG_SHARED_DATA_DIR) / "probes" / (name + ".exr");
+}
+
+/// Loads a real probe; the test FAILS (not skips) when the shared data is missing, saying where it was expected.
+inline ::testing::AssertionResult load_real_probe(const std::string& name, Probe* out, int width = 0) {
+  const auto path = real_probe_path(name);
+  if (!std::filesystem::exists(path))
+    return ::testing::AssertionFailure() << "real light probe " << path
+                                         << " is missing: the shared data folder (VDRIG_SHARED_DATA_DIR = "
+                                         << VDRIG_SHARED_DATA_DIR << ") must hold probes/" << name << ".exr";
+  LoadOptions options;
+  options.width = width;
+  auto p = load_probe(path, options);
+  if (!p) return ::testing::AssertionFailure() << "loading " << path << ": " << p.error().describe();
+  *out = std::move(p.value());
+  return ::testing::AssertionSuccess();
+}
+
+/// A map whose pixel (i, j) holds f(direction through the pixel centre).
+inline Probe synthetic_probe(int height, const std::function<Rgb(const Vec3d&)>& f) {
+  Probe p = make_probe(height);
+  for (int j = 0; j < p.height(); ++j)
+    for (int i = 0; i < p.width(); ++i) {
+      const Rgb c = f(latlong_direction(i, j, p.width(), p.height()));
+      p.radiance.at<cv::Vec3f>(j, i) =
+          cv::Vec3f(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
+    }
+  return p;
+}
+
+/// The same map as a median cut or SH projection that forgot the solid angle would see it: every pixel weighted
+/// by the mean pixel solid angle 4 pi / (W H) instead of its row's. Feeding this to a correct implementation
+/// reproduces the bug exactly, so tests can show that their error bounds catch it.
+inline Probe without_solid_angle_weighting(const Probe& p) {
+  Probe q = p;
+  q.radiance = p.radiance.clone();
+  const double mean = 4.0 * kPi / (static_cast<double>(p.width()) * p.height());
+  for (int j = 0; j < p.height(); ++j) {
+    const float s = static_cast<float>(mean / latlong_pixel_solid_angle(j, p.width(), p.height()));
+    for (int i = 0; i < p.width(); ++i) q.radiance.at<cv::Vec3f>(j, i) *= s;
+  }
+  return q;
+}
+
+/// Brute-force E(n) at every normal (computed once; the expensive reference of the accuracy tests).
+inline std::vector<Rgb> reference_irradiance(const Probe& p, const std::vector<Vec3d>& normals) {
+  const IrradianceIntegrator brute(p);
+  std::vector<Rgb> out;
+  for (const auto& n : normals) out.push_back(brute.irradiance(n));
+  return out;
+}
+
+/// Relative error statistics of per-normal luminance irradiance, |E - E_ref| / E_ref (mean and max over normals),
+/// and the mean absolute error relative to the mean irradiance (dim normals weigh less).
+struct ErrorStats {
+  double mean = 0, max = 0, of_mean = 0;
+};
+template <typename A>
+ErrorStats irradiance_error(const std::vector<Vec3d>& normals, A approx, const std::vector<Rgb>& reference) {
+  ErrorStats s;
+  double abs_sum = 0, ref_sum = 0;
+  for (size_t k = 0; k < normals.size(); ++k) {
+    const double ref = luminance(reference[k]);
+    const double e = std::abs(luminance(approx(normals[k])) - ref) / ref;
+    s.mean += e / normals.size();
+    s.max = std::max(s.max, e);
+    abs_sum += e * ref;
+    ref_sum += ref;
+  }
+  s.of_mean = abs_sum / ref_sum;
+  return s;
+}
+
+}  // namespace vdrig::probe::testing

@@ -1,0 +1,116 @@
+// A diffuse sphere lit by a probe: the three irradiance modes agree within the errors measured in
+// test_median_cut / test_sh_irradiance, closed forms on a uniform map, and the tone mapper.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "probe_support.hpp"
+#include "vdrig/probe/shading.hpp"
+
+namespace vdrig::probe {
+namespace {
+
+using testing::load_real_probe;
+using testing::synthetic_probe;
+
+// Mean over the sphere's pixels of |luminance(a) - luminance(b)| / luminance(b), and the fraction of pixels covered.
+std::pair<double, double> compare(const cv::Mat& a, const cv::Mat& b) {
+  double sum = 0;
+  long n = 0;
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x) {
+      const cv::Vec3f &va = a.at<cv::Vec3f>(y, x), &vb = b.at<cv::Vec3f>(y, x);
+      const double la = luminance(Rgb(va[0], va[1], va[2])), lb = luminance(Rgb(vb[0], vb[1], vb[2]));
+      if (lb <= 0) continue;
+      sum += std::abs(la - lb) / lb;
+      ++n;
+    }
+  return {n ? sum / n : 0.0, static_cast<double>(n) / (a.rows * a.cols)};
+}
+
+TEST(Shading, UniformLightGivesTheAlbedo) {
+  // L = 1 everywhere: E = pi at every normal, so a Lambertian sphere reflects exactly its albedo.
+  const Probe p = synthetic_probe(64, [](const Vec3d&) { return Rgb::Ones(); });
+  SphereRenderOptions o;
+  o.size_px = 32;
+  o.albedo = Rgb(0.2, 0.5, 0.8);
+  o.light_count = 256;
+  for (ShadingMode m : {ShadingMode::kBruteForce, ShadingMode::kMedianCut, ShadingMode::kSh9}) {
+    o.mode = m;
+    const cv::Mat img = render_diffuse_sphere(p, o);
+    ASSERT_EQ(img.type(), CV_32FC3);
+    double worst = 0;
+    int inside = 0;
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) {
+        const cv::Vec3f v = img.at<cv::Vec3f>(y, x);
+        if (v[0] == 0) continue;
+        ++inside;
+        worst = std::max(worst, (Rgb(v[0], v[1], v[2]) - o.albedo).cwiseAbs().maxCoeff() / 0.8);
+      }
+    std::printf("uniform map, %-10s: sphere radiance within %.2e of the albedo\n", to_string(m), worst);
+    EXPECT_NEAR(inside, kPi * 16 * 16, 40);  // the disc covers pi r^2 pixels
+    EXPECT_LT(worst, m == ShadingMode::kMedianCut ? 0.05 : 1e-3) << to_string(m);
+    EXPECT_EQ(img.at<cv::Vec3f>(0, 0)[0], 0.0f);  // corners are outside the sphere
+  }
+}
+
+TEST(Shading, CentrePixelFacesTheCamera) {
+  // With the camera on +y, the centre pixel's normal is +y: its radiance is albedo / pi * E(+y).
+  Probe p;
+  ASSERT_TRUE(load_real_probe("courtyard", &p, 256));
+  SphereRenderOptions o;
+  o.size_px = 33;  // odd: a pixel centre on the axis
+  o.mode = ShadingMode::kBruteForce;
+  o.view_dir = Vec3d::UnitY();
+  const cv::Mat img = render_diffuse_sphere(p, o);
+  const Rgb expect = o.albedo.cwiseProduct(IrradianceIntegrator(p).irradiance(Vec3d::UnitY())) / kPi;
+  const cv::Vec3f got = img.at<cv::Vec3f>(16, 16);
+  EXPECT_LT((Rgb(got[0], got[1], got[2]) - expect).norm() / expect.norm(), 1e-5);
+}
+
+TEST(Shading, ThreeModesAgreeOnRealProbes) {
+  for (const char* name : testing::kRealProbes) {
+    Probe p;
+    ASSERT_TRUE(load_real_probe(name, &p, 512));
+    SphereRenderOptions o;
+    o.size_px = 32;
+    o.brute_width = 256;
+    o.light_count = 256;
+    o.mode = ShadingMode::kBruteForce;
+    const cv::Mat brute = render_diffuse_sphere(p, o);
+    o.mode = ShadingMode::kMedianCut;
+    const cv::Mat mc = render_diffuse_sphere(p, o);
+    o.mode = ShadingMode::kSh9;
+    const cv::Mat sh = render_diffuse_sphere(p, o);
+    const auto [mc_err, covered] = compare(mc, brute);
+    const auto [sh_err, covered_sh] = compare(sh, brute);
+    std::printf("%-9s sphere, mean relative difference to brute force: median-cut(256) %.2f %%, SH-9 %.2f %%\n", name,
+                100 * mc_err, 100 * sh_err);
+    EXPECT_NEAR(covered, kPi / 4, 0.03);
+    // The per-normal means measured over the whole sphere of normals were <= 0.6 % (256 lights) and <= 8.7 % (SH);
+    // the visible hemisphere is a subset, so allow the same bounds as those tests.
+    EXPECT_LT(mc_err, 0.008) << name;
+    EXPECT_LT(sh_err, name == std::string("studio") ? 0.105 : 0.06) << name;
+  }
+}
+
+TEST(Shading, ToneMapper) {
+  cv::Mat rgb(1, 3, CV_32FC3);
+  const double gamma = 2.0;
+  rgb.at<cv::Vec3f>(0, 0) = cv::Vec3f(0, 0, 0);
+  rgb.at<cv::Vec3f>(0, 1) = cv::Vec3f(static_cast<float>(std::log(2.0) / gamma), 0, 0);  // 1 - exp(-ln 2) = 0.5
+  rgb.at<cv::Vec3f>(0, 2) = cv::Vec3f(0, 0, 1000);
+  const cv::Mat out = tone_map_srgb8(rgb, gamma);
+  ASSERT_EQ(out.type(), CV_8UC3);
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(0, 0, 0));
+  // sRGB(0.5) = 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354 -> 188; red lands in OpenCV's third (R) channel.
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 1), cv::Vec3b(0, 0, 188));
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 2), cv::Vec3b(255, 0, 0));
+  // auto_gamma maps the mean luminance of the lit pixels to 0.5.
+  cv::Mat flat(4, 4, CV_32FC3, cv::Scalar(3, 3, 3));
+  EXPECT_NEAR(1 - std::exp(-auto_gamma(flat) * 3.0), 0.5, 1e-12);
+}
+
+}  // namespace
+}  // namespace vdrig::probe
