@@ -1,0 +1,271 @@
+// The interactive viewer loop (viewer/interactive.hpp) driven by scripted input: a frame it saves at captured view k
+// must match the headless path, tone_map(render_radiance(same camera, same pose)), since both use the same shader;
+// a scripted drag must change the view (to the expected neighbour), and the gamma keys the brightness.
+// Needs an X display with OpenGL 3.3 (xvfb-run in CI); skipped with the reason otherwise.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/viewer/interactive.hpp"
+
+namespace vdrig::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kS = 16, kT = 12;
+constexpr double kW = 400.0, kH = 300.0, kDistance = 1200.0;
+constexpr int kWidth = 160, kHeight = 120;
+
+/// Phong-1 with a diffuse gradient across the surface and a glossy lobe around the mirror of a light at
+/// (azimuth 200, zenith 35 degrees): a highlight that moves with the view.
+fitting::ParameterMap make_map() {
+  fitting::ParameterMap map(fitting::ModelDescriptor::parse("phong:1").value(), kS, kT, kW, kH);
+  const Vec3d light = direction_from_spherical(deg_to_rad(200), deg_to_rad(35));
+  for (int t = 0; t < kT; ++t)
+    for (int s = 0; s < kS; ++s) {
+      fitting::PhongParams p;
+      p.kd = Vec3d(0.15 + 0.4 * s / kS, 0.25, 0.1 + 0.5 * t / kT);
+      fitting::PhongLobe lobe;
+      lobe.ks = Vec3d(1.6, 1.3, 1.0);
+      lobe.direction = mirror_direction(light, Vec3d::UnitZ());
+      lobe.shininess = 12.0;
+      p.lobes.push_back(lobe);
+      map.set_phong(s, t, p);
+    }
+  return map;
+}
+
+/// Captured views: rings at zenith 20 and 45 degrees, every 60 degrees of azimuth, looking at the centre.
+std::vector<ViewPose> captured_views() {
+  std::vector<ViewPose> v;
+  for (double zen : {20.0, 45.0})
+    for (int a = 0; a < 6; ++a)
+      v.push_back(orbit_pose(Vec3d::Zero(), deg_to_rad(60.0 * a), deg_to_rad(zen), kDistance));
+  return v;
+}
+
+class Interactive : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / ("vdrig_interactive_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    options_.camera = default_pinhole(kW, kH, kWidth, kHeight, kDistance);
+    options_.captured_views = captured_views();
+    options_.distance_mm = kDistance;
+    options_.max_frames = 3;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// Runs the loop; skips the test without a display.
+  ViewerResult run(const ViewerOptions& o) {
+    auto r = run_viewer(map_, o);
+    if (!r && r.error().code == ErrorCode::kUnsupported) {
+      skipped_ = r.error().message;
+      return {};
+    }
+    EXPECT_TRUE(r) << r.error().describe();
+    return r ? std::move(r.value()) : ViewerResult{};
+  }
+
+  /// The headless path: tone_map(render_radiance(camera, pose)) in an invisible context of its own.
+  cv::Mat headless(const CameraModel& cam, const ViewPose& pose, double gamma) {
+    auto ctx = GlContext::create(cam.width, cam.height, false);
+    if (!ctx) return {};
+    auto renderer = SurfaceRenderer::create(map_);
+    EXPECT_TRUE(renderer) << renderer.error().describe();
+    if (!renderer) return {};
+    auto radiance = (*renderer)->render_radiance(cam, pose, options_.render);
+    EXPECT_TRUE(radiance) << radiance.error().describe();
+    if (!radiance) return {};
+    return tone_map(radiance.value(), gamma);
+  }
+
+  static double mean_abs_diff(const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat d;
+    cv::absdiff(a, b, d);
+    const cv::Scalar m = cv::mean(d);
+    return (m[0] + m[1] + m[2]) / 3.0;
+  }
+  static double mean_level(const cv::Mat& a) {
+    const cv::Scalar m = cv::mean(a);
+    return (m[0] + m[1] + m[2]) / 3.0;
+  }
+
+  fitting::ParameterMap map_ = make_map();
+  ViewerOptions options_;
+  fs::path dir_;
+  std::string skipped_;
+};
+
+#define RUN_OR_SKIP(var, opts)                                              \
+  const ViewerResult var = run(opts);                                       \
+  if (!skipped_.empty()) GTEST_SKIP() << "no OpenGL display: " << skipped_; \
+  ASSERT_FALSE(var.last_frame.empty())
+
+TEST_F(Interactive, ConstrainedFrameMatchesHeadlessRender) {
+  const int k = 8;  // zenith 45, azimuth 120
+  ViewerOptions o = options_;
+  o.constrained = true;
+  o.initial_view = k;
+  o.gamma = 1.5;
+  o.last_frame_png = dir_ / "frame.png";
+  RUN_OR_SKIP(r, o);
+  EXPECT_EQ(r.frames, 3);
+  EXPECT_EQ(r.mode, ViewCamera::Mode::kConstrained);
+  EXPECT_EQ(r.view, k);
+  EXPECT_EQ((r.pose.R - o.captured_views[k].R).norm(), 0.0);
+  EXPECT_EQ((r.pose.t - o.captured_views[k].t).norm(), 0.0);
+  EXPECT_EQ(r.frame_camera.width, kWidth);
+  EXPECT_EQ(r.frame_camera.height, kHeight);
+  EXPECT_EQ(r.frame_camera.fx, o.camera->fx) << "window framebuffer = camera size: no rescaling";
+
+  auto saved = read_png(o.last_frame_png);
+  ASSERT_TRUE(saved) << saved.error().describe();
+  ASSERT_EQ(saved->size(), cv::Size(kWidth, kHeight));
+  ASSERT_EQ(saved->type(), CV_8UC3);
+  const cv::Mat want = headless(r.frame_camera, o.captured_views[k], o.gamma);
+  ASSERT_FALSE(want.empty());
+  const double mad = mean_abs_diff(saved.value(), want);
+  cv::Mat d;
+  cv::absdiff(saved.value(), want, d);
+  double max_diff = 0;
+  cv::minMaxLoc(d.reshape(1), nullptr, &max_diff);
+  std::printf("window vs headless at view %d: mean |diff| %.4f codes, max %.0f; mean level %.1f\n", k, mad, max_diff,
+              mean_level(want));
+  EXPECT_LT(mad, 1.0);
+  EXPECT_LE(max_diff, 3.0);
+  EXPECT_GT(mean_level(want), 20.0) << "the surface must fill a good part of the frame";
+}
+
+TEST_F(Interactive, ScriptedDragMovesToTheNeighbouringView) {
+  const int k = 7;  // zenith 45, azimuth 60
+  ViewerOptions o = options_;
+  o.constrained = true;
+  o.initial_view = k;
+  RUN_OR_SKIP(still, o);
+  o.script = {{1, InputEvent::drag(20, 0)}, {1, InputEvent::drag(20, 0)}, {1, InputEvent::drag_end()}};
+  RUN_OR_SKIP(dragged, o);
+  // Dragging right moves the camera toward smaller azimuth: the view at azimuth 0 on the same ring.
+  EXPECT_EQ(dragged.view, 6);
+  EXPECT_EQ(dragged.mode, ViewCamera::Mode::kConstrained);
+  const double mad = mean_abs_diff(still.last_frame, dragged.last_frame);
+  std::printf("drag view %d -> %d: frames differ by %.2f codes on average\n", k, dragged.view, mad);
+  EXPECT_GT(mad, 3.0);
+  // And the frame is that view's.
+  const cv::Mat want = headless(dragged.frame_camera, o.captured_views[6], o.gamma);
+  ASSERT_FALSE(want.empty());
+  EXPECT_LT(mean_abs_diff(dragged.last_frame, want), 1.0);
+
+  // Free mode: the drag orbits.
+  ViewerOptions f = options_;
+  RUN_OR_SKIP(free_still, f);
+  f.script = {{1, InputEvent::drag(0, -60)}, {1, InputEvent::drag(-40, 0)}};
+  RUN_OR_SKIP(free_dragged, f);
+  EXPECT_EQ(free_dragged.mode, ViewCamera::Mode::kFree);
+  const SphericalDir s = spherical_from_direction(free_dragged.pose.camera_centre());
+  EXPECT_NEAR(rad_to_deg(s.zenith_rad), rad_to_deg(60 * f.camera_settings.rad_per_px), 1e-6);
+  EXPECT_NEAR(rad_to_deg(s.azimuth_rad), 270.0 + rad_to_deg(40 * f.camera_settings.rad_per_px), 1e-6);
+  EXPECT_GT(mean_abs_diff(free_still.last_frame, free_dragged.last_frame), 1.0);
+}
+
+TEST_F(Interactive, GammaKeysChangeBrightness) {
+  ViewerOptions o = options_;
+  o.constrained = true;
+  o.initial_view = 3;
+  RUN_OR_SKIP(base, o);
+  o.script = {{0, InputEvent::press(ViewerKey::kGammaUp)},
+              {1, InputEvent::press(ViewerKey::kGammaUp)},
+              {1, InputEvent::press(ViewerKey::kGammaUp)}};
+  RUN_OR_SKIP(up, o);
+  o.script = {{0, InputEvent::press(ViewerKey::kGammaDown)}, {2, InputEvent::press(ViewerKey::kGammaDown)}};
+  RUN_OR_SKIP(down, o);
+  EXPECT_NEAR(up.gamma, std::pow(1.25, 3), 1e-12);
+  EXPECT_NEAR(down.gamma, std::pow(1.25, -2), 1e-12);
+  const double lb = mean_level(base.last_frame), lu = mean_level(up.last_frame), ld = mean_level(down.last_frame);
+  std::printf("mean level: gamma 1 %.1f, gamma %.3f %.1f, gamma %.3f %.1f\n", lb, up.gamma, lu, down.gamma, ld);
+  EXPECT_GT(lu, lb + 5.0);
+  EXPECT_LT(ld, lb - 5.0);
+  // The brighter frame is the tone mapping at the new gamma, not just any brightening.
+  const cv::Mat want = headless(up.frame_camera, o.captured_views[3], up.gamma);
+  ASSERT_FALSE(want.empty());
+  EXPECT_LT(mean_abs_diff(up.last_frame, want), 1.0);
+}
+
+TEST_F(Interactive, ScreenshotKeyAndQuit) {
+  ViewerOptions o = options_;
+  o.max_frames = 10;
+  o.screenshot_dir = dir_;
+  o.script = {{1, InputEvent::press(ViewerKey::kScreenshot)}, {2, InputEvent::press(ViewerKey::kQuit)}};
+  RUN_OR_SKIP(r, o);
+  EXPECT_EQ(r.frames, 2) << "Q stops the loop before frame 2";
+  ASSERT_EQ(r.screenshots.size(), 1u);
+  EXPECT_EQ(r.screenshots[0].filename(), "vdrig_view_001.png");
+  auto shot = read_png(r.screenshots[0]);
+  ASSERT_TRUE(shot) << shot.error().describe();
+  EXPECT_EQ(mean_abs_diff(shot.value(), r.last_frame), 0.0);
+}
+
+// The controller alone: no window needed.
+TEST(ViewerController, KeysDriveModeStepsGammaAndTitle) {
+  ViewerOptions o;
+  o.captured_views = captured_views();
+  o.distance_mm = kDistance;
+  ViewerController c(o, 500.0);
+  EXPECT_NE(c.title().find("free"), std::string::npos);
+  c.handle(InputEvent::press(ViewerKey::kToggleMode));  // snaps: reset view (zenith 0) -> a zenith-20 view
+  EXPECT_EQ(c.camera().mode(), ViewCamera::Mode::kConstrained);
+  const int v = c.camera().current_view();
+  EXPECT_GE(v, 0);
+  EXPECT_LT(v, 6);
+  c.handle(InputEvent::press(ViewerKey::kNext));
+  EXPECT_EQ(c.camera().current_view(), v + 1);
+  EXPECT_NE(c.title().find("captured view " + std::to_string(v + 2) + "/12"), std::string::npos) << c.title();
+  c.handle(InputEvent::press(ViewerKey::kGammaUp));
+  EXPECT_NE(c.title().find("gamma 1.25"), std::string::npos) << c.title();
+  c.handle(InputEvent::scroll(2));  // ignored on a captured view
+  c.handle(InputEvent::press(ViewerKey::kReset));
+  EXPECT_EQ(c.camera().mode(), ViewCamera::Mode::kFree);
+  c.handle(InputEvent::scroll(2));
+  EXPECT_NEAR(c.camera().distance_mm(), kDistance * 0.81, 1e-9);
+  c.handle(InputEvent::pan(10, 0));  // 10 px at 500 px focal, 972 mm away: 19.44 mm
+  EXPECT_NEAR(c.camera().target_mm().x(), -10.0 * kDistance * 0.81 / 500.0, 1e-9);
+  EXPECT_FALSE(c.take_screenshot_request());
+  c.handle(InputEvent::press(ViewerKey::kScreenshot));
+  EXPECT_TRUE(c.take_screenshot_request());
+  EXPECT_FALSE(c.take_screenshot_request());
+  EXPECT_FALSE(c.quit_requested());
+  c.handle(InputEvent::press(ViewerKey::kQuit));
+  EXPECT_TRUE(c.quit_requested());
+
+  ViewerOptions bad = o;
+  bad.captured_views.clear();
+  bad.constrained = true;
+  std::string why;
+  EXPECT_FALSE(bad.is_valid(&why));
+  EXPECT_NE(why.find("captured views"), std::string::npos);
+}
+
+TEST(ViewerCameraFit, DefaultPinholeAndFitCamera) {
+  const CameraModel c = default_pinhole(400, 300, 1024, 768, 2500);
+  // The surface edges at 2500 mm fall 10% inside the limiting image dimension.
+  const double half_w_px = c.fx * 200.0 / 2500.0, half_h_px = c.fy * 150.0 / 2500.0;
+  EXPECT_NEAR(std::max(half_w_px / 512.0, half_h_px / 384.0), 1.0 / 1.1, 1e-12);
+  // Half size: same field of view.
+  const CameraModel h = fit_camera(c, 512, 384);
+  EXPECT_NEAR(h.fx, c.fx / 2, 1e-12);
+  EXPECT_NEAR(h.cx, 255.5, 1e-12);
+  // Wider window: letterboxed, centred.
+  const CameraModel w = fit_camera(c, 2048, 768);
+  EXPECT_NEAR(w.fx, c.fx, 1e-12);
+  EXPECT_NEAR(w.cx, c.cx + 512.0, 1e-12);
+  EXPECT_NEAR(w.cy, c.cy, 1e-12);
+}
+
+}  // namespace
+}  // namespace vdrig::viewer
