@@ -10,6 +10,6 @@ void register_modbus_backends(BackendRegistry& registry);    // stage: modbus-tc
 void register_gpiod_backends(BackendRegistry& registry);     // stage: gpio-stepdir; light: gpio
 void register_v4l2_backend(BackendRegistry& registry);       // camera: v4l2
 void register_libcamera_backend(BackendRegistry& registry);  // camera: libcamera
-void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (discovery only)
+void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (PTP over libusb)
 
 }  // namespace vdrig::rig

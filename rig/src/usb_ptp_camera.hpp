@@ -1,16 +1,25 @@
-// "usb-ptp" camera: finds a still camera on USB (interface class 6, Still Image / PTP) through libusb.
-// Only discovery is implemented: info() names the camera; set_exposure() and capture() return kUnsupported (a PTP
-// capture needs the vendor's operation set and object transfer, better left to libgphoto2 when it is wanted).
+// "usb-ptp" camera: a still camera on USB (interface class 6, Still Image) driven with PTP (ISO 15740) over bulk
+// transfers through libusb: InitiateCapture, wait for ObjectAdded, GetObject, decode the JPEG. The protocol itself
+// is in ptp_protocol.{hpp,cpp} (no USB code, tested against a fake camera); docs/rig-ptp.md has the details.
 //
-// Settings: "vendor_id" / "product_id" (hex strings like "04a9", optional filters), "index" (0: which of the
-// matching cameras).
+// Settings (JSON "camera" section):
+//   "vendor_id" / "product_id" (hex strings like "04a9", optional filters), "index" (0: which of the matching
+//   cameras), "timeout_s" (5: per USB transfer), "capture_timeout_s" (30: InitiateCapture to ObjectAdded, on top of
+//   the exposure), "complete_grace_s" (1: how long to wait for CaptureComplete / more objects after the first
+//   ObjectAdded), "keep_on_card" (false: each photo is deleted from the camera once downloaded), "base_iso" (100:
+//   gain 1 is this ISO; gain g asks for ISO g * base_iso), "busy_retries" (20: DeviceBusy answers tolerated).
+// set_exposure() picks the supported ExposureTime (and ISO) nearest in stops and capture() reports what was used.
+// kDisconnected when the camera went away; the next call reopens it.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "ptp_protocol.hpp"
 #include "vdrig/rig/devices.hpp"
 
 namespace vdrig::rig {
@@ -24,18 +33,66 @@ struct UsbStillCamera {
 /// Every USB device with an interface of class 6 (still image).
 Result<std::vector<UsbStillCamera>> list_usb_still_cameras();
 
+struct UsbPtpConfig {
+  std::optional<uint16_t> vendor_id, product_id;
+  int index = 0;
+  double timeout_s = 5.0;
+  double capture_timeout_s = 30.0;
+  double complete_grace_s = 1.0;
+  bool keep_on_card = false;
+  double base_iso = 100.0;
+  int busy_retries = 20;
+  /// Validates every key up front (kInvalidArgument listing each problem).
+  static Result<UsbPtpConfig> parse(const nlohmann::json& settings);
+  ptp::SessionOptions session_options() const;
+};
+
+/// Opens the transport to the camera; called again to reconnect after the camera went away.
+using PtpTransportFactory = std::function<Result<std::unique_ptr<ptp::PtpTransport>>()>;
+
+/// libusb transport to the `config.index`-th matching still camera (kNotFound when there is none).
+Result<std::unique_ptr<ptp::PtpTransport>> open_usb_ptp_transport(const UsbPtpConfig& config);
+
 class UsbPtpCamera final : public Camera {
  public:
-  /// kNotFound when no matching still camera is attached.
+  /// Parses the settings and opens the camera over USB. kNotFound when no matching still camera is attached.
   static Result<std::unique_ptr<Camera>> create(const nlohmann::json& settings);
+  /// The same camera over any transport (the tests use a fake camera). Opens the PTP session at once.
+  static Result<std::unique_ptr<UsbPtpCamera>> create_with(UsbPtpConfig config, PtpTransportFactory open_transport,
+                                                           ptp::SessionOptions options);
+  ~UsbPtpCamera() override;
+
   std::string backend() const override { return "usb-ptp"; }
+  /// Model from GetDeviceInfo; width/height of the last photograph (0 before the first); exposure range from the
+  /// camera's ExposureTime description; auto_exposure_on when ExposureTime cannot be set.
   Result<CameraInfo> info() override;
   Status set_exposure(double exposure_s, double gain) override;
   Result<Frame> capture() override;
 
+  /// What the camera reported at open (empty before).
+  const ptp::DeviceInfo& device_info() const { return device_info_; }
+
  private:
-  explicit UsbPtpCamera(UsbStillCamera dev) : dev_(std::move(dev)) {}
-  UsbStillCamera dev_;
+  UsbPtpCamera(UsbPtpConfig config, PtpTransportFactory open_transport, ptp::SessionOptions options);
+  Status open();
+  void drop();
+  /// Drops the session after errors that leave the USB stream out of step, so the next call reopens.
+  Error failed(Error e);
+  Status apply_exposure();
+  std::string name() const;
+
+  UsbPtpConfig config_;
+  PtpTransportFactory open_transport_;
+  ptp::SessionOptions options_;
+  std::unique_ptr<ptp::PtpTransport> transport_;
+  std::unique_ptr<ptp::PtpSession> session_;
+  ptp::DeviceInfo device_info_;
+  std::optional<ptp::PropDesc> exposure_desc_, iso_desc_;
+  CameraInfo info_;
+  bool exposure_asked_ = false;
+  double exposure_s_ = 0.01, gain_ = 1.0;           // what was asked
+  double used_exposure_s_ = 0.0, used_gain_ = 1.0;  // what the camera took (0: unknown)
+  uint64_t captures_ = 0;
 };
 
 }  // namespace vdrig::rig
