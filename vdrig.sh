@@ -9,6 +9,8 @@ cd "$(dirname "$0")"
 verb=${1:-help}
 shift || true
 jobs=$(nproc)
+# ccache: paths relative to this clone, so a fresh clone (CI) hits the cache an earlier clone filled.
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
 
 setup() { bash scripts/setup; }
 
