@@ -1,11 +1,11 @@
 #include "gpio_light.hpp"
 
-#include "settings.hpp"
+#include "vdrig/core/settings.hpp"
 
 namespace vdrig::rig {
 
 Result<std::unique_ptr<Light>> GpioLight::create(const nlohmann::json& settings) {
-  Settings s(settings, "light gpio");
+  Settings s(settings, "light gpio", {"backend"});
   const std::string chip_name = s.string("chip", "gpiochip0");
   const int offset = static_cast<int>(s.required_integer("line", 0, 4095));
   const bool active_low = s.boolean("active_low", false);

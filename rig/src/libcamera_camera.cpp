@@ -10,8 +10,8 @@
 
 #include "backends.hpp"
 #include "pixel_convert.hpp"
-#include "settings.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/settings.hpp"
 
 namespace vdrig::rig {
 
@@ -80,7 +80,7 @@ LibcameraCamera::LibcameraCamera(std::unique_ptr<Impl> impl) : impl_(std::move(i
 LibcameraCamera::~LibcameraCamera() = default;
 
 Result<std::unique_ptr<Camera>> LibcameraCamera::create(const nlohmann::json& settings) {
-  Settings s(settings, "camera libcamera");
+  Settings s(settings, "camera libcamera", {"backend"});
   const std::string id = s.string("camera_id", "");
   const int width = static_cast<int>(s.integer("width", 0, 0, 16384));
   const int height = static_cast<int>(s.integer("height", 0, 0, 16384));

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <thread>
 
+#include "axis_settings.hpp"
 #include "backends.hpp"
-#include "settings.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::rig {
@@ -24,7 +24,7 @@ std::string hex16(unsigned v) {
 }
 
 ModbusAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, const std::string& where) {
-  Settings s(section, where);
+  Settings s(section, where, {"backend"});  // accepted in axis sections as before
   ModbusAxisConfig a;
   a.unit = static_cast<int>(s.required_integer("unit", 1, 247));  // 0 is broadcast, 248..255 reserved
   a.counts_per_degree = s.required_number("counts_per_degree", -1e9, 1e9);
@@ -70,7 +70,7 @@ bool is_transient(int err) {
 }  // namespace
 
 Result<ModbusStageConfig> ModbusStageConfig::parse(const nlohmann::json& settings, bool rtu) {
-  Settings s(settings, rtu ? "stage modbus-rtu" : "stage modbus-tcp");
+  Settings s(settings, rtu ? "stage modbus-rtu" : "stage modbus-tcp", {"backend"});
   ModbusStageConfig c;
   c.rtu = rtu;
   if (rtu) {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <optional>
 
-#include "settings.hpp"
+#include "axis_settings.hpp"
 #include "step_profile.hpp"
 #include "vdrig/core/log.hpp"
 
@@ -16,7 +16,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegPerRad = 180.0 / kPi;
 
 StepDirAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, const std::string& where) {
-  Settings s(section, where);
+  Settings s(section, where, {"backend"});  // accepted in axis sections as before
   StepDirAxisConfig a;
   a.step_line = static_cast<int>(s.required_integer("step_line", 0, 4095));
   a.dir_line = static_cast<int>(s.required_integer("dir_line", 0, 4095));
@@ -61,7 +61,7 @@ void sleep_until(const timespec& start, double offset_s) {
 }  // namespace
 
 Result<StepDirStageConfig> StepDirStageConfig::parse(const nlohmann::json& settings) {
-  Settings s(settings, "stage gpio-stepdir");
+  Settings s(settings, "stage gpio-stepdir", {"backend"});
   StepDirStageConfig c;
   c.chip = s.string("chip", "gpiochip0");
   c.step_pulse_s = s.number("step_pulse_s", 5e-6, 1e-7, 1e-3);

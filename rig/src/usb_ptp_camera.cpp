@@ -9,8 +9,8 @@
 #include <thread>
 
 #include "backends.hpp"
-#include "settings.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/settings.hpp"
 
 namespace vdrig::rig {
 namespace {
@@ -267,7 +267,7 @@ Result<std::vector<UsbStillCamera>> list_usb_still_cameras() {
 // ---- settings ----
 
 Result<UsbPtpConfig> UsbPtpConfig::parse(const nlohmann::json& settings) {
-  Settings s(settings, "camera usb-ptp");
+  Settings s(settings, "camera usb-ptp", {"backend"});
   UsbPtpConfig c;
   for (const auto& [key, dest] : {std::pair{"vendor_id", &c.vendor_id}, std::pair{"product_id", &c.product_id}}) {
     if (!s.has(key)) continue;

@@ -14,8 +14,8 @@
 
 #include "backends.hpp"
 #include "pixel_convert.hpp"
-#include "settings.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/settings.hpp"
 
 namespace vdrig::rig {
 namespace {
@@ -35,7 +35,7 @@ int64_t ns_of(const timespec& t) { return static_cast<int64_t>(t.tv_sec) * 10000
 }  // namespace
 
 Result<V4l2CameraConfig> V4l2CameraConfig::parse(const nlohmann::json& settings) {
-  Settings s(settings, "camera v4l2");
+  Settings s(settings, "camera v4l2", {"backend"});
   V4l2CameraConfig c;
   c.device = s.string("device", c.device);
   c.width = static_cast<int>(s.integer("width", 0, 0, 16384));

@@ -1,12 +1,11 @@
-#include "settings.hpp"
-
-#include "vdrig/core/geometry.hpp"
+#include "vdrig/core/settings.hpp"
 
 #include <cmath>
 
-namespace vdrig::rig {
+namespace vdrig {
 
-Settings::Settings(const nlohmann::json& section, std::string where) : section_(section), where_(std::move(where)) {
+Settings::Settings(const nlohmann::json& section, std::string where, std::initializer_list<const char*> envelope)
+    : section_(section), where_(std::move(where)), envelope_(envelope.begin(), envelope.end()) {
   if (!section_.is_object()) problems_.push_back("settings must be a JSON object");
 }
 
@@ -26,7 +25,11 @@ double Settings::number(const std::string& key, double fallback, double min, dou
     return fallback;
   }
   const double x = v->get<double>();
-  if (!std::isfinite(x) || x < min || x > max) {
+  if (!std::isfinite(x)) {
+    fail("\"" + key + "\" must be finite");
+    return fallback;
+  }
+  if (x < min || x > max) {
     fail("\"" + key + "\" = " + v->dump() + " is outside [" + nlohmann::json(min).dump() + ", " +
          nlohmann::json(max).dump() + "]");
     return fallback;
@@ -76,6 +79,16 @@ bool Settings::boolean(const std::string& key, bool fallback) {
   return v->get<bool>();
 }
 
+std::uint64_t Settings::unsigned_integer(const std::string& key, std::uint64_t fallback, std::uint64_t max) {
+  const nlohmann::json* v = find(key);
+  if (!v) return fallback;
+  if (!v->is_number_unsigned() || v->get<std::uint64_t>() > max) {
+    fail("\"" + key + "\" must be an integer in [0, " + std::to_string(max) + "], got " + v->dump());
+    return fallback;
+  }
+  return v->get<std::uint64_t>();
+}
+
 std::string Settings::string(const std::string& key, const std::string& fallback,
                              std::initializer_list<const char*> allowed) {
   const nlohmann::json* v = find(key);
@@ -105,6 +118,37 @@ std::string Settings::required_string(const std::string& key) {
   return s;
 }
 
+std::vector<double> Settings::number_list(const std::string& key, std::vector<double> fallback, std::size_t size) {
+  const nlohmann::json* v = find(key);
+  if (!v) return fallback;
+  const auto all_finite = [&] {
+    for (const auto& x : *v)
+      if (!x.is_number() || !std::isfinite(x.get<double>())) return false;
+    return true;
+  };
+  if (!v->is_array() || !all_finite() || (size != 0 && v->size() != size)) {
+    fail("\"" + key + "\" must be an array of " + (size ? std::to_string(size) + " " : std::string()) +
+         "finite numbers, got " + v->dump());
+    return fallback;
+  }
+  return v->get<std::vector<double>>();
+}
+
+std::vector<std::uint64_t> Settings::unsigned_list(const std::string& key, std::vector<std::uint64_t> fallback) {
+  const nlohmann::json* v = find(key);
+  if (!v) return fallback;
+  const auto all_unsigned = [&] {
+    for (const auto& x : *v)
+      if (!x.is_number_unsigned()) return false;
+    return true;
+  };
+  if (!v->is_array() || !all_unsigned()) {
+    fail("\"" + key + "\" must be an array of non-negative integers, got " + v->dump());
+    return fallback;
+  }
+  return v->get<std::vector<std::uint64_t>>();
+}
+
 nlohmann::json Settings::object(const std::string& key, bool required) {
   const nlohmann::json* v = find(key);
   if (!v) {
@@ -118,14 +162,22 @@ nlohmann::json Settings::object(const std::string& key, bool required) {
   return *v;
 }
 
+bool Settings::is_known(const std::string& key, const std::vector<std::string>& known) const {
+  for (const auto& name : envelope_)
+    if (key == name) return true;
+  for (const auto& name : known)
+    if (key == name) return true;
+  return false;
+}
+
 void Settings::reject_unknown(std::initializer_list<const char*> known) {
+  reject_unknown(std::vector<std::string>(known.begin(), known.end()));
+}
+
+void Settings::reject_unknown(const std::vector<std::string>& known) {
   if (!section_.is_object()) return;
-  for (const auto& [k, v] : section_.items()) {
-    if (k == "backend") continue;
-    bool found = false;
-    for (const char* name : known) found = found || k == name;
-    if (!found) fail("unknown setting \"" + k + "\"");
-  }
+  for (const auto& [k, v] : section_.items())
+    if (!is_known(k, known)) fail("unknown setting \"" + k + "\"");
 }
 
 void Settings::absorb(const Settings& nested) {
@@ -139,23 +191,13 @@ bool Settings::is_valid(std::string* why) const {
 }
 
 Error Settings::error() const {
-  std::string msg = where_ + ": invalid settings";
-  for (const auto& p : problems_) msg += "; " + p;
-  return make_error(ErrorCode::kInvalidArgument, msg);
+  return make_error(ErrorCode::kInvalidArgument, where_ + ": invalid settings; " + reasons());
 }
 
-AxisSpec read_axis_spec(Settings& s) {
-  constexpr double kDegPerRad = 180.0 / kPi;
-  AxisSpec axis;
-  const double min_deg = s.number("min_deg", -180.0, -1e6, 1e6);
-  const double max_deg = s.number("max_deg", 180.0, -1e6, 1e6);
-  if (min_deg >= max_deg) s.fail("\"min_deg\" must be below \"max_deg\"");
-  axis.min_rad = min_deg / kDegPerRad;
-  axis.max_rad = max_deg / kDegPerRad;
-  axis.max_speed_rad_s = s.number("max_speed_deg_s", 30.0, 1e-6, 1e6) / kDegPerRad;
-  axis.accel_rad_s2 = s.number("accel_deg_s2", 60.0, 1e-6, 1e7) / kDegPerRad;
-  axis.continuous = s.boolean("continuous", false);
-  return axis;
+std::string Settings::reasons() const {
+  std::string joined;
+  for (const auto& p : problems_) joined += (joined.empty() ? "" : "; ") + p;
+  return joined;
 }
 
-}  // namespace vdrig::rig
+}  // namespace vdrig
