@@ -3,6 +3,14 @@
 #include <cmath>
 
 namespace vdrig {
+namespace {
+
+/// A JSON integer >= 0 (nlohmann stores non-negative literals from C++ as signed integers).
+bool is_non_negative_integer(const nlohmann::json& v) {
+  return v.is_number_unsigned() || (v.is_number_integer() && v.get<long long>() >= 0);
+}
+
+}  // namespace
 
 Settings::Settings(const nlohmann::json& section, std::string where, std::initializer_list<const char*> envelope)
     : section_(section), where_(std::move(where)), envelope_(envelope.begin(), envelope.end()) {
@@ -82,7 +90,7 @@ bool Settings::boolean(const std::string& key, bool fallback) {
 std::uint64_t Settings::unsigned_integer(const std::string& key, std::uint64_t fallback, std::uint64_t max) {
   const nlohmann::json* v = find(key);
   if (!v) return fallback;
-  if (!v->is_number_unsigned() || v->get<std::uint64_t>() > max) {
+  if (!is_non_negative_integer(*v) || v->get<std::uint64_t>() > max) {
     fail("\"" + key + "\" must be an integer in [0, " + std::to_string(max) + "], got " + v->dump());
     return fallback;
   }
@@ -139,7 +147,7 @@ std::vector<std::uint64_t> Settings::unsigned_list(const std::string& key, std::
   if (!v) return fallback;
   const auto all_unsigned = [&] {
     for (const auto& x : *v)
-      if (!x.is_number_unsigned()) return false;
+      if (!is_non_negative_integer(x)) return false;
     return true;
   };
   if (!v->is_array() || !all_unsigned()) {

@@ -3,24 +3,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <set>
+#include <limits>
 #include <thread>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/settings.hpp"
 #include "vdrig/rig/motion.hpp"
 
 namespace vdrig::sim {
-namespace {
 
 using nlohmann::json;
-
-Status reject_unknown(const json& j, const std::set<std::string>& known, const std::string& where) {
-  for (const auto& [k, v] : j.items())
-    if (!known.count(k)) return make_error(ErrorCode::kInvalidArgument, where + ": unknown key \"" + k + "\"");
-  return Status::ok();
-}
-
-}  // namespace
 
 bool SimFaults::any() const {
   return !move_timeout_at.empty() || !drive_error_at.empty() || !drop_frame_at.empty() ||
@@ -32,84 +24,85 @@ SimConfig::SimConfig() {
   stage.tilt = {deg_to_rad(-5), deg_to_rad(85), deg_to_rad(30), deg_to_rad(60), false};
 }
 
+namespace {
+
+constexpr long long kIntMin = std::numeric_limits<int>::min();
+constexpr long long kIntMax = std::numeric_limits<int>::max();
+
+int read_int(Settings& s, const char* key, int fallback) {
+  return static_cast<int>(s.integer(key, fallback, kIntMin, kIntMax));
+}
+
+void read_faults(Settings& parent, const json& section, SimFaults& f) {
+  Settings s(section, "faults");
+  s.reject_unknown({"move_timeout_at", "drive_error_at", "drop_frame_at", "disconnect_camera_at", "disconnect_calls",
+                    "slow_write_ms"});
+  f.move_timeout_at = s.unsigned_list("move_timeout_at", {});
+  f.drive_error_at = s.unsigned_list("drive_error_at", {});
+  f.drop_frame_at = s.unsigned_list("drop_frame_at", {});
+  f.disconnect_camera_at = s.unsigned_list("disconnect_camera_at", {});
+  f.disconnect_calls = s.unsigned_integer("disconnect_calls", f.disconnect_calls);
+  f.slow_write_ms = s.number("slow_write_ms", f.slow_write_ms);
+  parent.absorb(s);
+}
+
+void read_camera(Settings& parent, const json& section, SimConfig& c) {
+  Settings s(section, "camera");
+  s.reject_unknown({"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits", "response",
+                    "full_well_e", "read_noise_e", "vignetting"});
+  CameraModel& m = c.camera;
+  m.width = read_int(s, "width", m.width);
+  m.height = read_int(s, "height", m.height);
+  m.fx = s.number("fx", m.fx);
+  m.fy = s.number("fy", m.fy);
+  m.cx = s.number("cx", (m.width - 1) / 2.0);
+  m.cy = s.number("cy", (m.height - 1) / 2.0);
+  m.k1 = s.number("k1", m.k1);
+  m.k2 = s.number("k2", m.k2);
+  m.p1 = s.number("p1", m.p1);
+  m.p2 = s.number("p2", m.p2);
+  m.k3 = s.number("k3", m.k3);
+  const int bits = static_cast<int>(s.integer("bits", 8, 8, 16));
+  const std::string response = s.string("response", "s-curve", {"s-curve", "linear"});
+  c.sensor.response = response == "linear" ? ResponseCurve::linear(bits) : ResponseCurve::s_curve(bits);
+  c.sensor.full_well_e = s.number("full_well_e", 0.0);
+  c.sensor.read_noise_e = s.number("read_noise_e", 0.0);
+  c.sensor.vignetting = s.number("vignetting", 0.0);
+  parent.absorb(s);
+}
+
+void read_stage(Settings& parent, const json& section, rig::StageSpec& stage) {
+  Settings s(section, "stage");
+  s.reject_unknown({"pan_min_deg", "pan_max_deg", "tilt_min_deg", "tilt_max_deg", "speed_deg_s", "accel_deg_s2"});
+  auto deg = [&](const char* k, double def_rad) { return deg_to_rad(s.number(k, rad_to_deg(def_rad))); };
+  stage.pan.min_rad = deg("pan_min_deg", stage.pan.min_rad);
+  stage.pan.max_rad = deg("pan_max_deg", stage.pan.max_rad);
+  stage.tilt.min_rad = deg("tilt_min_deg", stage.tilt.min_rad);
+  stage.tilt.max_rad = deg("tilt_max_deg", stage.tilt.max_rad);
+  stage.pan.max_speed_rad_s = stage.tilt.max_speed_rad_s = deg("speed_deg_s", stage.pan.max_speed_rad_s);
+  stage.pan.accel_rad_s2 = stage.tilt.accel_rad_s2 = deg("accel_deg_s2", stage.pan.accel_rad_s2);
+  parent.absorb(s);
+}
+
+}  // namespace
+
 Result<SimConfig> SimConfig::from_json(const json& j) {
   SimConfig c;
-  try {
-    VDRIG_TRY(reject_unknown(j,
-                             {"scene", "distance_mm", "surface_offset_mm", "samples_per_axis", "time_scale", "seed",
-                              "camera", "stage", "faults"},
-                             "sim"));
-    c.scene = j.value("scene", c.scene);
-    c.geometry.camera_distance_mm = j.value("distance_mm", c.geometry.camera_distance_mm);
-    if (j.contains("surface_offset_mm")) {
-      const auto o = j["surface_offset_mm"].get<std::vector<double>>();
-      if (o.size() != 3) return make_error(ErrorCode::kInvalidArgument, "sim.surface_offset_mm must be [x, y, z]");
-      c.geometry.surface_offset_mm = Vec3d(o[0], o[1], o[2]);
-    }
-    if (j.contains("faults")) {
-      const json& f = j["faults"];
-      VDRIG_TRY(reject_unknown(f,
-                               {"move_timeout_at", "drive_error_at", "drop_frame_at", "disconnect_camera_at",
-                                "disconnect_calls", "slow_write_ms"},
-                               "sim.faults"));
-      using List = std::vector<uint64_t>;
-      c.faults.move_timeout_at = f.value("move_timeout_at", List{});
-      c.faults.drive_error_at = f.value("drive_error_at", List{});
-      c.faults.drop_frame_at = f.value("drop_frame_at", List{});
-      c.faults.disconnect_camera_at = f.value("disconnect_camera_at", List{});
-      c.faults.disconnect_calls = f.value("disconnect_calls", c.faults.disconnect_calls);
-      c.faults.slow_write_ms = f.value("slow_write_ms", c.faults.slow_write_ms);
-    }
-    c.samples_per_axis = j.value("samples_per_axis", c.samples_per_axis);
-    c.time_scale = j.value("time_scale", c.time_scale);
-    c.sensor.seed = j.value("seed", c.sensor.seed);
-    if (j.contains("camera")) {
-      const json& cam = j["camera"];
-      VDRIG_TRY(reject_unknown(cam,
-                               {"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits",
-                                "response", "full_well_e", "read_noise_e", "vignetting"},
-                               "sim.camera"));
-      CameraModel& m = c.camera;
-      m.width = cam.value("width", m.width);
-      m.height = cam.value("height", m.height);
-      m.fx = cam.value("fx", m.fx);
-      m.fy = cam.value("fy", m.fy);
-      m.cx = cam.value("cx", (m.width - 1) / 2.0);
-      m.cy = cam.value("cy", (m.height - 1) / 2.0);
-      m.k1 = cam.value("k1", m.k1);
-      m.k2 = cam.value("k2", m.k2);
-      m.p1 = cam.value("p1", m.p1);
-      m.p2 = cam.value("p2", m.p2);
-      m.k3 = cam.value("k3", m.k3);
-      const int bits = cam.value("bits", 8);
-      if (bits < 8 || bits > 16) return make_error(ErrorCode::kInvalidArgument, "sim.camera.bits must be 8..16");
-      const std::string response = cam.value("response", std::string("s-curve"));
-      if (response == "s-curve")
-        c.sensor.response = ResponseCurve::s_curve(bits);
-      else if (response == "linear")
-        c.sensor.response = ResponseCurve::linear(bits);
-      else
-        return make_error(ErrorCode::kInvalidArgument, "sim.camera.response must be \"s-curve\" or \"linear\"");
-      c.sensor.full_well_e = cam.value("full_well_e", 0.0);
-      c.sensor.read_noise_e = cam.value("read_noise_e", 0.0);
-      c.sensor.vignetting = cam.value("vignetting", 0.0);
-    }
-    if (j.contains("stage")) {
-      const json& st = j["stage"];
-      VDRIG_TRY(reject_unknown(
-          st, {"pan_min_deg", "pan_max_deg", "tilt_min_deg", "tilt_max_deg", "speed_deg_s", "accel_deg_s2"},
-          "sim.stage"));
-      auto deg = [&](const char* k, double def_rad) { return deg_to_rad(st.value(k, rad_to_deg(def_rad))); };
-      c.stage.pan.min_rad = deg("pan_min_deg", c.stage.pan.min_rad);
-      c.stage.pan.max_rad = deg("pan_max_deg", c.stage.pan.max_rad);
-      c.stage.tilt.min_rad = deg("tilt_min_deg", c.stage.tilt.min_rad);
-      c.stage.tilt.max_rad = deg("tilt_max_deg", c.stage.tilt.max_rad);
-      c.stage.pan.max_speed_rad_s = c.stage.tilt.max_speed_rad_s = deg("speed_deg_s", c.stage.pan.max_speed_rad_s);
-      c.stage.pan.accel_rad_s2 = c.stage.tilt.accel_rad_s2 = deg("accel_deg_s2", c.stage.pan.accel_rad_s2);
-    }
-  } catch (const json::exception& e) {
-    return make_error(ErrorCode::kInvalidArgument, std::string("sim config: ") + e.what());
-  }
+  Settings s(j, "sim");
+  s.reject_unknown({"scene", "distance_mm", "surface_offset_mm", "samples_per_axis", "time_scale", "seed", "camera",
+                    "stage", "faults"});
+  c.scene = s.string("scene", c.scene);
+  c.geometry.camera_distance_mm = s.number("distance_mm", c.geometry.camera_distance_mm);
+  const Vec3d& o = c.geometry.surface_offset_mm;
+  const std::vector<double> offset = s.number_list("surface_offset_mm", {o.x(), o.y(), o.z()}, 3);
+  c.geometry.surface_offset_mm = Vec3d(offset[0], offset[1], offset[2]);
+  c.samples_per_axis = read_int(s, "samples_per_axis", c.samples_per_axis);
+  c.time_scale = s.number("time_scale", c.time_scale);
+  c.sensor.seed = s.unsigned_integer("seed", c.sensor.seed);
+  if (s.has("faults")) read_faults(s, s.object("faults", true), c.faults);
+  if (s.has("camera")) read_camera(s, s.object("camera", true), c);
+  if (s.has("stage")) read_stage(s, s.object("stage", true), c.stage);
+  if (!s.is_valid(nullptr)) return s.error();
   std::string why;
   if (!c.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "sim config: " + why);
   return c;
