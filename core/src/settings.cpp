@@ -182,10 +182,10 @@ void Settings::reject_unknown(std::initializer_list<const char*> known) {
   reject_unknown(std::vector<std::string>(known.begin(), known.end()));
 }
 
-void Settings::reject_unknown(const std::vector<std::string>& known) {
+void Settings::reject_unknown(const std::vector<std::string>& known, const std::string& noun) {
   if (!section_.is_object()) return;
   for (const auto& [k, v] : section_.items())
-    if (!is_known(k, known)) fail("unknown setting \"" + k + "\"");
+    if (!is_known(k, known)) fail("unknown " + noun + " \"" + k + "\"");
 }
 
 void Settings::absorb(const Settings& nested) {

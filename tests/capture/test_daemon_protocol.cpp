@@ -13,8 +13,11 @@
 #include <sys/wait.h>
 
 #include <chrono>
+#include <fstream>
 #include <functional>
 #include <random>
+#include <regex>
+#include <set>
 #include <thread>
 
 #include "test_support.hpp"
@@ -347,6 +350,50 @@ TEST_F(DaemonFixture, RefusesAnotherUserWhileServingTheAllowedOne) {
     EXPECT_EQ(status.value("id", -1), k);
   }
   ::close(allowed);
+}
+
+/// The codes docs/protocol.md's "Error codes" table lists (first column, in backticks).
+std::set<std::string> documented_error_codes() {
+  std::ifstream doc(fs::path(VDRIG_SOURCE_DIR) / "docs" / "protocol.md");
+  EXPECT_TRUE(doc) << "cannot read docs/protocol.md";
+  std::set<std::string> codes;
+  std::string line;
+  bool in_section = false;
+  const std::regex row(R"(^\| `([^`]*)` \|)");
+  while (std::getline(doc, line)) {
+    if (line.rfind("## ", 0) == 0) in_section = line == "## Error codes";
+    std::smatch m;
+    if (!in_section || !std::regex_search(line, m, row)) continue;
+    EXPECT_TRUE(codes.insert(m[1]).second) << "listed twice: " << m[1];
+  }
+  return codes;
+}
+
+// One wire code per ErrorCode, distinct and snake_case, and the protocol document lists exactly the codes sent.
+TEST(WireCodes, EveryErrorCodeHasADistinctSnakeCaseCodeAndTheDocsListExactlyTheCodesSent) {
+  const ErrorCode all[] = {ErrorCode::kIo,           ErrorCode::kCorrupt, ErrorCode::kInvalidArgument,
+                           ErrorCode::kNotFound,     ErrorCode::kDevice,  ErrorCode::kTimeout,
+                           ErrorCode::kDisconnected, ErrorCode::kNoSpace, ErrorCode::kUnsupported,
+                           ErrorCode::kCancelled,    ErrorCode::kInternal};
+  // The list above is every ErrorCode: the values are 0..N-1 and N itself is not one (wire_code's fallback).
+  for (size_t k = 0; k < std::size(all); ++k) EXPECT_EQ(static_cast<size_t>(all[k]), k);
+  EXPECT_STREQ(wire_code(static_cast<ErrorCode>(std::size(all))), "unknown") << "a new ErrorCode: add it here";
+
+  const std::regex snake_case("[a-z]+(_[a-z]+)*");
+  std::set<std::string> sent;
+  for (const ErrorCode code : all) {
+    const std::string wire = wire_code(code);
+    EXPECT_TRUE(std::regex_match(wire, snake_case)) << wire;
+    EXPECT_TRUE(sent.insert(wire).second) << "two ErrorCodes share " << wire;
+  }
+  EXPECT_EQ(sent.count("invalid_argument"), 1u);
+  EXPECT_EQ(sent.count("no_space"), 1u);
+  EXPECT_EQ(sent.count("not_found"), 1u);
+  for (const std::string& own : protocol_error_codes()) {
+    EXPECT_TRUE(std::regex_match(own, snake_case)) << own;
+    EXPECT_TRUE(sent.insert(own).second) << own << " is also an ErrorCode's wire code";
+  }
+  EXPECT_EQ(documented_error_codes(), sent);
 }
 
 }  // namespace

@@ -1,9 +1,8 @@
 // vdrigd's engine: runs capture sessions on one rig in a worker thread, controlled over a Unix domain socket with
-// line-delimited JSON (docs/protocol.md). Kept in the library so tests run it in-process; apps/vdrigd is a shell.
+// line-delimited JSON (docs/protocol.md). apps/vdrigd is a shell around it; tests run it in-process.
 //
-// Threads: run() is a poll() loop that owns every socket and answers every request; one worker thread runs the
-// session in hand and talks back only through a mutex-guarded event queue and a wake-up pipe. Planning a new
-// session (scheme, route) and `home`/`move` run on the loop thread (short). No exception leaves run().
+// Threads: run() owns every socket and answers every request on the calling thread; one worker thread runs the
+// session in hand. Planning a new session and `home`/`move` block the loop until done. No exception leaves run().
 #pragma once
 
 #include <sys/types.h>
@@ -15,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/rig/devices.hpp"
@@ -44,6 +44,13 @@ std::filesystem::path default_runtime_dir();
 
 /// Session names: 1..64 characters of [A-Za-z0-9._-], not starting with '.' (no traversal, no hidden files).
 bool valid_session_name(const std::string& name, std::string* why = nullptr);
+
+/// The "code" of an error reply (and of status' "error_code") for a failure reported as an Error: one distinct
+/// snake_case name per ErrorCode ("invalid_argument", "no_space", "not_found", ...).
+const char* wire_code(ErrorCode code);
+/// The codes the protocol itself uses besides wire_code()'s ("bad_request", "busy", "too_long", ...).
+/// docs/protocol.md lists exactly these and wire_code() of every ErrorCode.
+std::vector<std::string> protocol_error_codes();
 
 class Daemon {
  public:

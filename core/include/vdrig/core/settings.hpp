@@ -51,8 +51,9 @@ class Settings {
   /// Records a reason of your own (cross-field checks such as min < max).
   void fail(const std::string& reason);
   /// Rejects keys neither in `known` nor in the envelope: a typo would otherwise silently use a default.
+  /// `noun` names a key in the message ("unknown setting \"x\"", "unknown field \"x\"").
   void reject_unknown(std::initializer_list<const char*> known);
-  void reject_unknown(const std::vector<std::string>& known);
+  void reject_unknown(const std::vector<std::string>& known, const std::string& noun = "setting");
   /// Merges the problems of a nested Settings into this one (each prefixed with the nested `where`).
   void absorb(const Settings& nested);
 

@@ -1,0 +1,215 @@
+#include "daemon_server.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <vector>
+
+#include "daemon_protocol.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::capture {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string dump_line(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n"; }
+
+}  // namespace
+
+SocketServer::SocketServer(const DaemonConfig& config) : config_(config), logger_(log::get("vdrigd")) {}
+
+SocketServer::~SocketServer() {
+  for (auto& [fd, c] : clients_) ::close(fd);
+  if (listen_fd_ >= 0) ::close(listen_fd_);
+  for (int fd : wake_pipe_)
+    if (fd >= 0) ::close(fd);
+}
+
+fs::path SocketServer::socket_path() const { return config_.runtime_dir / "vdrigd.sock"; }
+
+void SocketServer::wake() {
+  if (wake_pipe_[1] < 0) return;
+  const char b = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_pipe_[1], &b, 1);
+}
+
+Status SocketServer::open() {
+  std::error_code ec;
+  fs::create_directories(config_.runtime_dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + config_.runtime_dir.string() + ": " + ec.message());
+  ::chmod(config_.runtime_dir.c_str(), 0770);
+  if (::pipe2(wake_pipe_, O_NONBLOCK | O_CLOEXEC) != 0)
+    return make_error(ErrorCode::kIo, std::string("pipe: ") + std::strerror(errno));
+
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string path = socket_path().string();  // DaemonConfig::is_valid checked that it fits
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  if (fs::exists(socket_path(), ec)) {
+    // A live daemon answers a connect; a stale file (crash) does not and is replaced.
+    const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    const bool live = probe >= 0 && ::connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    if (probe >= 0) ::close(probe);
+    if (live) return make_error(ErrorCode::kInvalidArgument, "another daemon is serving " + path);
+    ::unlink(path.c_str());
+  }
+  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (listen_fd_ < 0) return make_error(ErrorCode::kIo, std::string("socket: ") + std::strerror(errno));
+  // Bind with a restrictive umask so the socket is never briefly world-accessible, then set exactly 0660.
+  const mode_t old_mask = ::umask(0117);
+  const int rc = ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  ::umask(old_mask);
+  if (rc != 0) return make_error(ErrorCode::kIo, "bind " + path + ": " + std::strerror(errno));
+  ::chmod(path.c_str(), 0660);
+  if (::listen(listen_fd_, 16) != 0) return make_error(ErrorCode::kIo, std::string("listen: ") + std::strerror(errno));
+  logger_->info("listening on {} (uid {} allowed)", path, config_.allowed_uid);
+  return Status::ok();
+}
+
+void SocketServer::send(Connection& c, const json& j) {
+  if (c.closing && c.fd < 0) return;
+  c.out += dump_line(j);
+  if (c.out.size() > config_.max_output_bytes) {
+    logger_->warn("client {} is not reading ({} bytes queued): dropped", c.fd, c.out.size());
+    c.out.clear();
+    c.closing = true;
+  }
+}
+
+void SocketServer::push(const json& event) {
+  for (auto& [fd, c] : clients_)
+    if (c.subscribed && !c.closing) send(c, event);
+}
+
+void SocketServer::accept_clients() {
+  while (true) {
+    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) return;  // EAGAIN or a transient error: poll again
+    ucred cred{};
+    socklen_t len = sizeof cred;
+    const bool known = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
+    const bool allowed =
+        known && (cred.uid == config_.allowed_uid || (config_.allowed_gid && cred.gid == *config_.allowed_gid));
+    if (!allowed || static_cast<int>(clients_.size()) >= config_.max_clients) {
+      const json refusal = allowed ? error_reply({wire::kBusy, "too many clients"})
+                                   : error_reply({wire::kPermissionDenied, "peer not allowed"});
+      const std::string reply = dump_line(refusal);
+      [[maybe_unused]] const ssize_t n = ::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL);
+      logger_->warn("refused connection from uid {} gid {}", known ? static_cast<long>(cred.uid) : -1L,
+                    known ? static_cast<long>(cred.gid) : -1L);
+      ::close(fd);
+      continue;
+    }
+    clients_[fd].fd = fd;
+  }
+}
+
+bool SocketServer::read_client(Connection& c, const LineHandler& on_line) {
+  char buf[16384];
+  while (true) {
+    const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
+    if (n == 0) return false;
+    if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
+    if (c.closing) continue;  // discard input after a fatal request
+    c.in.append(buf, static_cast<size_t>(n));
+    size_t pos;
+    while (!c.closing && (pos = c.in.find('\n')) != std::string::npos) {
+      const std::string line = c.in.substr(0, pos);
+      c.in.erase(0, pos + 1);
+      if (line.size() > config_.max_line_bytes) {
+        too_long(c);
+        break;
+      }
+      send(c, on_line(line, c.subscribed));
+    }
+    if (!c.closing && c.in.size() > config_.max_line_bytes) too_long(c);
+  }
+}
+
+void SocketServer::too_long(Connection& c) {
+  send(c, error_reply(
+              {wire::kTooLong, "request longer than " + std::to_string(config_.max_line_bytes) + " bytes; closing"}));
+  c.in.clear();
+  c.closing = true;
+}
+
+bool SocketServer::flush_client(Connection& c) {
+  while (!c.out.empty()) {
+    const ssize_t n = ::send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL);
+    if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
+    c.out.erase(0, static_cast<size_t>(n));
+  }
+  return true;
+}
+
+Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_line,
+                           const std::function<void()>& after_io) {
+  while (!stop.load()) {
+    std::vector<pollfd> fds;
+    fds.push_back({listen_fd_, POLLIN, 0});
+    fds.push_back({wake_pipe_[0], POLLIN, 0});
+    for (auto& [fd, c] : clients_) {
+      short ev = c.closing ? 0 : POLLIN;
+      if (!c.out.empty()) ev |= POLLOUT;
+      fds.push_back({fd, ev, 0});
+    }
+    const int n = ::poll(fds.data(), fds.size(), 1000);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return make_error(ErrorCode::kIo, std::string("poll: ") + std::strerror(errno));
+    }
+    if (fds[1].revents & POLLIN) {
+      char buf[256];
+      while (::read(wake_pipe_[0], buf, sizeof buf) > 0) {
+      }
+    }
+    for (size_t k = 2; k < fds.size(); ++k) {
+      auto it = clients_.find(fds[k].fd);
+      if (it == clients_.end()) continue;
+      Connection& c = it->second;
+      bool alive = true;
+      if (fds[k].revents & (POLLIN | POLLHUP | POLLERR)) alive = read_client(c, on_line);
+      if (alive && (fds[k].revents & POLLERR)) alive = false;
+      if (!alive) {
+        ::close(c.fd);
+        clients_.erase(it);
+      }
+    }
+    if (fds[0].revents & POLLIN) accept_clients();
+    after_io();
+    for (auto it = clients_.begin(); it != clients_.end();) {
+      Connection& c = it->second;
+      const bool ok = flush_client(c);
+      if (!ok || (c.closing && c.out.empty())) {
+        ::close(c.fd);
+        it = clients_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+  return Status::ok();
+}
+
+void SocketServer::close() {
+  for (auto& [fd, c] : clients_) {
+    (void)flush_client(c);
+    ::close(fd);
+  }
+  clients_.clear();
+  if (listen_fd_ >= 0) {
+    ::close(listen_fd_);
+    listen_fd_ = -1;
+    ::unlink(socket_path().c_str());
+  }
+}
+
+}  // namespace vdrig::capture

@@ -1,0 +1,70 @@
+// vdrigd's socket server: the Unix socket (0660 in a 0770 folder), peer credentials (SO_PEERCRED), line framing
+// and per-connection buffers, in one poll() loop. It knows nothing of commands: each complete line goes to a
+// callback whose reply it queues, and it pushes events to the connections that asked for them.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "vdrig/capture/daemon.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::capture {
+
+/// One client connection.
+struct Connection {
+  int fd = -1;
+  std::string in;           // bytes received, not yet a complete line
+  std::string out;          // bytes queued for sending
+  bool subscribed = false;  // wants pushed events (set by the protocol's `subscribe`)
+  bool closing = false;     // input is ignored; close once `out` is flushed
+};
+
+/// Answers one request line (its '\n' and any '\r' left on): the reply object. May set `subscribed`.
+using LineHandler = std::function<nlohmann::json(const std::string& line, bool& subscribed)>;
+
+class SocketServer {
+ public:
+  /// `config` (runtime_dir, allowed peers, limits) must outlive the server.
+  explicit SocketServer(const DaemonConfig& config);
+  ~SocketServer();
+  SocketServer(const SocketServer&) = delete;
+  SocketServer& operator=(const SocketServer&) = delete;
+
+  std::filesystem::path socket_path() const;
+
+  /// Creates the runtime dir (0770) and binds the socket (0660). A stale socket file is replaced; a live daemon on
+  /// it is kInvalidArgument.
+  Status open();
+  /// Serves until `stop` is set: answers each request line with `on_line`, then calls `after_io` (for pushing
+  /// events), then writes what it can. Returns only a fatal error (poll failure), else ok.
+  Status serve(const std::atomic<bool>& stop, const LineHandler& on_line, const std::function<void()>& after_io);
+  /// Queues `event` on every subscribed connection.
+  void push(const nlohmann::json& event);
+  /// Writes what can be written without blocking, closes every connection and the socket, and removes it.
+  void close();
+  /// Async-signal-safe: makes a waiting serve() look at its state again.
+  void wake();
+
+ private:
+  void accept_clients();
+  /// Reads what is there and answers complete lines; false when the peer closed or failed.
+  bool read_client(Connection& c, const LineHandler& on_line);
+  void too_long(Connection& c);
+  void send(Connection& c, const nlohmann::json& j);
+  /// Writes queued output; false on a write error.
+  static bool flush_client(Connection& c);
+
+  const DaemonConfig& config_;
+  int listen_fd_ = -1;
+  int wake_pipe_[2] = {-1, -1};
+  std::map<int, Connection> clients_;
+  std::shared_ptr<spdlog::logger> logger_;
+};
+
+}  // namespace vdrig::capture
