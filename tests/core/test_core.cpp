@@ -1,4 +1,4 @@
-// core: conventions, camera model, response curve and file I/O.
+// core: conventions, camera model, response curve, settings validation and file I/O.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -9,6 +9,7 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/response.hpp"
+#include "vdrig/core/settings.hpp"
 
 namespace vdrig {
 namespace {
@@ -132,6 +133,36 @@ TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
   EXPECT_FALSE(write_file_atomic(d / "no" / "such" / "dir.txt", "x"));
   EXPECT_FALSE(write_png(d / "empty.png", cv::Mat()));
   fs::remove_all(d);
+}
+
+TEST(Settings, CollectsEveryProblemAndAcceptsTheEnvelope) {
+  const nlohmann::json section = {{"backend", "x"},   {"speed", "fast"}, {"count", 2.5}, {"offsets", {1, 2}},
+                                  {"calls", {3, -1}}, {"name", "a"},     {"typo", true}, {"ok", 4}};
+  Settings s(section, "stage demo", {"backend"});
+  EXPECT_EQ(s.number("speed", 1.0), 1.0);  // fallback on a problem
+  EXPECT_EQ(s.integer("count", 7, 0, 10), 7);
+  EXPECT_EQ(s.number_list("offsets", {0, 0, 0}, 3).size(), 3u);
+  EXPECT_TRUE(s.unsigned_list("calls", {}).empty());
+  EXPECT_EQ(s.integer("ok", 0, 0, 10), 4);
+  EXPECT_EQ(s.unsigned_integer("absent", 9), 9u);
+  EXPECT_EQ(s.string("name", "", {"a", "b"}), "a");
+  s.reject_unknown({"speed", "count", "offsets", "calls", "name", "ok"});
+  std::string why;
+  ASSERT_FALSE(s.is_valid(&why));
+  EXPECT_EQ(s.problems().size(), 5u) << why;
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(why.rfind("stage demo: invalid settings; ", 0), 0u) << why;
+  for (const char* part :
+       {"\"speed\" must be a number", "\"count\" must be an integer", "\"offsets\" must be an array of 3",
+        "\"calls\" must be an array of non-negative integers", "unknown setting \"typo\""})
+    EXPECT_NE(why.find(part), std::string::npos) << part << " not in: " << why;
+  EXPECT_EQ(s.reasons().find("stage demo"), std::string::npos);  // reasons alone, for callers that frame them
+
+  Settings request({{"cmd", "move"}, {"id", 1}, {"extra", 0}}, "request", {"cmd", "id"});
+  request.reject_unknown(std::vector<std::string>{"pan_deg"}, "field");
+  EXPECT_EQ(request.reasons(), "unknown field \"extra\"");
+  Settings not_object(nlohmann::json::array(), "sim");
+  EXPECT_FALSE(not_object.is_valid(nullptr));
 }
 
 }  // namespace
