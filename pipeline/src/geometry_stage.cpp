@@ -93,7 +93,7 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
     out.camera = truth->camera;
   } else {
     return make_error(ErrorCode::kNotFound,
-                      "no camera model: pass one (vdrig calib intrinsics) or write calib/camera.yml");
+                      "no camera model: pass one (vdrig calib intrinsics) or write " + files.camera_file().string());
   }
   std::string why;
   if (!out.camera.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "camera model: " + why);

@@ -1,14 +1,15 @@
 // SessionLayout: where every file of a session folder lives. This is the only place that spells a session's file
 // and folder names; every stage and command asks it, so a session written by one tool is found by the next.
 //
-//   SESSION/manifest.json              what was planned (capture/session.hpp: Manifest). Written once by the capture.
+//   SESSION/manifest.json              what was planned (capture/session.hpp: Manifest). Written atomically; stages
+//                                      rewrite only its `extra` section.
 //   SESSION/journal.jsonl              append-only record of committed frames and events (capture/session.hpp).
 //   SESSION/frames/view_VVVV_eEE.png   frame EE of view VVVV's exposure bracket: 8- or 16-bit PNG, BGR codes as the
 //                                      camera delivered them. Journal lines name them relative to SESSION.
 //   SESSION/hdr/view_VVVV.exr          the view's bracket merged to relative radiance with its clip mask
 //                                      (calib/hdr.hpp; `vdrig hdr SESSION`).
-//   SESSION/calib/response.json        the camera's response curve (`vdrig calib response`); when present it is used
-//                                      instead of the simulator's ground truth.
+//   SESSION/calib/response.json        the camera's response curve (`vdrig calib response --out` it here); when
+//                                      present it is used instead of the simulator's ground truth.
 //   SESSION/calib/camera.yml           the camera model (OpenCV YAML) the views were posed with.
 //   SESSION/calib/views.json           per-view marker poses and the rig kinematic fit (calib/extrinsics.hpp;
 //                                      `vdrig calib extrinsics SESSION`).
