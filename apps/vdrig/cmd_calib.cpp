@@ -180,8 +180,7 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
         k.geometry.camera_distance_mm, o.x(), o.y(), o.z(), k.rms_translation_mm, k.rms_rotation_deg,
         k.max_rotation_deg);
   }
-  std::printf("wrote %s and %s\n", (session->dir() / "calib" / "camera.yml").c_str(),
-              (session->dir() / "calib" / "views.json").c_str());
+  std::printf("wrote %s and %s\n", session->layout().camera_file().c_str(), session->layout().views_file().c_str());
   return Status::ok();
 }
 
@@ -189,7 +188,7 @@ Status run_session_hdr(const std::string& session_dir) {
   auto session = capture::Session::open(session_dir);
   if (!session) return session.error();
   VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
-  std::printf("merged %d views -> %s\n", session->completed_view_count(), (session->dir() / "hdr").c_str());
+  std::printf("merged %d views -> %s\n", session->completed_view_count(), session->layout().hdr_dir().c_str());
   return Status::ok();
 }
 

@@ -43,7 +43,8 @@ Status run_demo(const DemoArgs& a) {
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
 
-  std::printf("2/5 HDR merge of %d brackets -> %s\n", n_views, (session_dir / "hdr").c_str());
+  const capture::SessionLayout layout = session->layout();
+  std::printf("2/5 HDR merge of %d brackets -> %s\n", n_views, layout.hdr_dir().c_str());
   VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
 
   // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
@@ -70,8 +71,9 @@ Status run_demo(const DemoArgs& a) {
   std::printf("\n");
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
-  fs::create_directories(session_dir / "maps", ec);
-  const fs::path map_path = session_dir / "maps" / "phong1.exr";
+  // Named by the model's spec, as `vdrig fit --model phong:1` names it.
+  const fs::path map_path = layout.parameter_map_file(fit_options.model.to_string());
+  fs::create_directories(map_path.parent_path(), ec);
   VDRIG_TRY(map->write(map_path));
 
   std::printf("5/5 render held-out views and compare with the photographs\n");
@@ -79,7 +81,7 @@ Status run_demo(const DemoArgs& a) {
   if (!geometry) return geometry.error();
   auto scene = sim::make_scene(a.scene);
   if (!scene) return scene.error();
-  const fs::path renders = out / "renders";
+  const fs::path renders = layout.renders_dir();
   for (int v : held_out) {
     // The diffuse patch (first Lambertian patch of the scene), 20 mm inside its edges.
     cv::Mat region;

@@ -48,7 +48,7 @@ Status run_build(const BuildArgs& a) {
     std::fflush(stdout);
   };
   const std::filesystem::path out =
-      a.out.empty() ? session->dir() / "obsmap" / (a.resolution + ".vdobs") : std::filesystem::path(a.out);
+      a.out.empty() ? session->layout().obsmap_file(res->first, res->second) : std::filesystem::path(a.out);
   const Status built = pipeline::build_session_obsmap_file(session.value(), res->first, res->second, out, options);
   std::printf("\n");
   VDRIG_TRY(built);

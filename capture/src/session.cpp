@@ -140,12 +140,13 @@ Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_empty(dir, ec))
     return make_error(ErrorCode::kInvalidArgument, "session folder " + dir.string() + " exists and is not empty");
-  fs::create_directories(dir / "frames", ec);
+  const SessionLayout layout(dir);
+  fs::create_directories(layout.frames_dir(), ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
   if (manifest.software_version.empty()) manifest.software_version = software_version();
   if (manifest.created_utc.empty()) manifest.created_utc = utc_now();
-  VDRIG_TRY(write_file_atomic(dir / "manifest.json", manifest.to_json().dump(2) + "\n"));
-  VDRIG_TRY(write_file_atomic(dir / "journal.jsonl", ""));
+  VDRIG_TRY(write_file_atomic(layout.manifest_file(), manifest.to_json().dump(2) + "\n"));
+  VDRIG_TRY(write_file_atomic(layout.journal_file(), ""));
   Session s;
   s.dir_ = dir;
   s.manifest_ = std::move(manifest);
@@ -153,7 +154,8 @@ Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
 }
 
 Result<Session> Session::open(const fs::path& dir) {
-  const fs::path manifest_path = dir / "manifest.json";
+  const SessionLayout layout(dir);
+  const fs::path manifest_path = layout.manifest_file();
   if (!fs::exists(manifest_path)) return make_error(ErrorCode::kNotFound, "no session at " + dir.string());
   Session s;
   s.dir_ = dir;
@@ -165,8 +167,10 @@ Result<Session> Session::open(const fs::path& dir) {
     if (!m) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": " + m.error().message);
     s.manifest_ = std::move(m.value());
   }
-  std::ifstream journal(dir / "journal.jsonl", std::ios::binary);
-  if (!journal) return make_error(ErrorCode::kCorrupt, "session " + dir.string() + " has no journal.jsonl");
+  std::ifstream journal(layout.journal_file(), std::ios::binary);
+  if (!journal)
+    return make_error(ErrorCode::kCorrupt,
+                      "session " + dir.string() + " has no " + layout.journal_file().filename().string());
   std::stringstream buf;
   buf << journal.rdbuf();
   const std::string text = buf.str();
@@ -180,7 +184,7 @@ Result<Session> Session::open(const fs::path& dir) {
       log::get("capture")->warn("session {}: dropping torn last journal line {}", dir.string(), line_no);
       // Cut it off, or the next append would glue a new line onto it and corrupt the journal.
       std::error_code ec;
-      fs::resize_file(dir / "journal.jsonl", pos, ec);
+      fs::resize_file(layout.journal_file(), pos, ec);
       if (ec) return make_error(ErrorCode::kIo, "cannot truncate torn journal line: " + ec.message());
       break;
     }
@@ -257,7 +261,7 @@ Status fsync_path(const fs::path& path, bool directory) {
 }  // namespace
 
 Status Session::append_journal(const std::string& text) {
-  const fs::path path = dir_ / "journal.jsonl";
+  const fs::path path = layout().journal_file();
   if (write_hook_) VDRIG_TRY(write_hook_(path));
   const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
   if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
@@ -289,8 +293,7 @@ Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Fra
   if (frame.image.empty()) return make_error(ErrorCode::kInvalidArgument, "empty frame image");
   if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U)
     return make_error(ErrorCode::kInvalidArgument, "frame image must be 8- or 16-bit");
-  char name[64];
-  std::snprintf(name, sizeof name, "frames/view_%04d_e%02d.png", view, bracket_index);
+  const std::string name = SessionLayout::frame_file_relative(view, bracket_index).string();
   std::vector<uchar> bytes;
   try {
     // Speed over size (encoding is the daemon's main per-frame CPU cost): OpenCV's fast path is zlib level 1 with
@@ -328,7 +331,7 @@ Status Session::mark_view_complete(int view, int frames) {
   if (!batch.empty()) {
     // Data first, then the names, then the line that makes them count.
     for (const auto& r : batch) VDRIG_TRY(fsync_path(dir_ / r.file, false));
-    VDRIG_TRY(fsync_path(dir_ / "frames", true));
+    VDRIG_TRY(fsync_path(layout().frames_dir(), true));
   }
   std::string text;
   for (const auto& r : batch) text += r.to_json().dump() + "\n";
@@ -358,7 +361,7 @@ Result<cv::Mat> Session::load_image(const FrameRecord& record) const { return re
 
 Status Session::update_extra(const json& extra) {
   manifest_.extra = extra;
-  return write_file_atomic(dir_ / "manifest.json", manifest_.to_json().dump(2) + "\n");
+  return write_file_atomic(layout().manifest_file(), manifest_.to_json().dump(2) + "\n");
 }
 
 }  // namespace vdrig::capture

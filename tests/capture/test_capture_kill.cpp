@@ -59,7 +59,7 @@ void expect_complete_exactly_once(const fs::path& dir, int bracket) {
   ASSERT_TRUE(session) << session.error().describe();
   const int n = static_cast<int>(session->manifest().views.size());
   std::vector<int> completions(n, 0);
-  std::ifstream in(dir / "journal.jsonl");
+  std::ifstream in(SessionLayout(dir).journal_file());
   std::string line;
   while (std::getline(in, line)) {
     const json j = json::parse(line, nullptr, false);
@@ -96,7 +96,7 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
   std::uniform_int_distribution<int> extra_us(0, 15000);
   int killed_mid_run = 0;
   for (int round = 0; round < 20; ++round) {
-    const std::uintmax_t start_size = fs::file_size(dir / "journal.jsonl");
+    const std::uintmax_t start_size = fs::file_size(SessionLayout(dir).journal_file());
     const std::uintmax_t target = start_size + grow_bytes(rng);
     const pid_t pid = ::fork();
     ASSERT_GE(pid, 0);
@@ -109,7 +109,7 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (std::chrono::steady_clock::now() < deadline) {
       std::error_code ec;
-      if (fs::file_size(dir / "journal.jsonl", ec) >= target) break;
+      if (fs::file_size(SessionLayout(dir).journal_file(), ec) >= target) break;
       if (::waitpid(pid, &status, WNOHANG) == pid) {
         exited = true;
         break;
@@ -158,8 +158,8 @@ TEST(CaptureKill, FullDiskStopsWithNoSpaceAndResumes) {
   EXPECT_EQ(stopped->completed_view_count(), 10);
   EXPECT_FALSE(stopped->view_complete(10));
   // Its image files were written, but without a durable commit they do not count: not one of its frames is journaled.
-  EXPECT_TRUE(fs::exists(dir / "frames" / "view_0010_e00.png"));
-  EXPECT_TRUE(fs::exists(dir / "frames" / "view_0010_e01.png"));
+  EXPECT_TRUE(fs::exists(SessionLayout(dir).frame_file(10, 0)));
+  EXPECT_TRUE(fs::exists(SessionLayout(dir).frame_file(10, 1)));
   EXPECT_EQ(stopped->frames_of_view(10).size(), 0u);
   EXPECT_EQ(stopped->frames().size(), 20u);
   // A reserve larger than the free space: stops before the first view, nothing written.

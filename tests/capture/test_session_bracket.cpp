@@ -141,7 +141,7 @@ TEST(Capture, WarnsInJournalWhenCameraIsInAutoExposure) {
   o.exposures_s = {0.1};
   o.disk_reserve_bytes = 0;
   ASSERT_TRUE(run_capture(rig, session.value(), o));
-  std::ifstream in(dir / "journal.jsonl");
+  std::ifstream in(SessionLayout(dir).journal_file());
   std::string text((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(text.find("auto exposure"), std::string::npos) << text;
   fs::remove_all(dir);
@@ -218,7 +218,7 @@ TEST(Session, TornJournalLineIsCutSoLaterAppendsStayReadable) {
   o.disk_reserve_bytes = 0;
   ASSERT_TRUE(session->mark_view_complete(0, 0));
   {
-    std::ofstream out(dir / "journal.jsonl", std::ios::app);
+    std::ofstream out(SessionLayout(dir).journal_file(), std::ios::app);
     out << R"({"type":"frame","view":1,"bra)";  // a crash mid-append
   }
   auto reopened = Session::open(dir);

@@ -116,7 +116,7 @@ int check_journal(const fs::path& dir) {
   auto session = Session::open(dir);
   EXPECT_TRUE(session) << session.error().describe();
   if (!session) return -1;
-  std::ifstream in(dir / "journal.jsonl");
+  std::ifstream in(SessionLayout(dir).journal_file());
   std::string line;
   std::map<int, std::set<int>> brackets_seen;  // view -> bracket indices journaled so far
   std::set<int> completed;
@@ -192,7 +192,7 @@ TEST(Vdrigd, SigtermMidSessionExitsCleanlyAndTheSessionResumes) {
   EXPECT_LT(views_at_term, kViews) << "the session finished before SIGTERM: the test proves nothing";
   {
     // The stop is recorded: the capture was cancelled, not failed.
-    std::ifstream in(session_dir / "journal.jsonl");
+    std::ifstream in(SessionLayout(session_dir).journal_file());
     std::string text((std::istreambuf_iterator<char>(in)), {});
     EXPECT_NE(text.find("\"event\":\"stopped\""), std::string::npos);
   }

@@ -50,8 +50,8 @@ TEST_F(Calibrated, MarkerPosesReplaceGroundTruth) {
   options.camera = sc->camera;  // a simulated session has no chessboard views: the caller gives the intrinsics
   auto cal = calibrate_session_geometry(session.value(), options);
   ASSERT_TRUE(cal) << cal.error().describe();
-  EXPECT_TRUE(fs::exists(session->dir() / "calib" / "views.json"));
-  EXPECT_TRUE(fs::exists(session->dir() / "calib" / "camera.yml"));
+  EXPECT_TRUE(fs::exists(session->layout().views_file()));
+  EXPECT_TRUE(fs::exists(session->layout().camera_file()));
   // Every view up to 60 deg tilt gives a marker pose; near-grazing ones (80 deg) may not (markers 1/6 as tall).
   int steep = 0;
   for (const auto& rec : cal->views.views) {
@@ -115,7 +115,7 @@ TEST_F(Calibrated, MarkerPosesReplaceGroundTruth) {
   EXPECT_LT(mean_rel, 0.01);
 
   // Corrupt calibration files are errors, not silent fallbacks to the ground truth.
-  ASSERT_TRUE(write_file_atomic(session->dir() / "calib" / "views.json", "{\"format_version\": 1"));
+  ASSERT_TRUE(write_file_atomic(session->layout().views_file(), "{\"format_version\": 1"));
   EXPECT_FALSE(session_geometry(session.value()));
 }
 

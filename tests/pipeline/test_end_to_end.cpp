@@ -64,7 +64,8 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   }
 
   // The map survives its file format.
-  const fs::path map_path = dir_ / "phong1.exr";
+  const fs::path map_path = session->layout().parameter_map_file("phong:1");
+  fs::create_directories(map_path.parent_path());
   ASSERT_TRUE(map->write(map_path));
   auto reread = fitting::ParameterMap::read(map_path);
   ASSERT_TRUE(reread) << reread.error().describe();
@@ -75,7 +76,7 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   ASSERT_TRUE(geometry);
   const cv::Mat diffuse = surface_region_mask(geometry->camera, geometry->poses[held_out], -380, -380, -70, -70);
   ASSERT_GT(cv::countNonZero(diffuse), 500) << "the diffuse patch must be in view";
-  auto cmp = render_and_compare(session.value(), reread.value(), held_out, dir_ / "renders", diffuse);
+  auto cmp = render_and_compare(session.value(), reread.value(), held_out, session->layout().renders_dir(), diffuse);
   if (!cmp && cmp.error().code == ErrorCode::kUnsupported) GTEST_SKIP() << "no OpenGL display: " << cmp.error().message;
   ASSERT_TRUE(cmp) << cmp.error().describe();
   EXPECT_LT(cmp->mean_abs_error, 3.0) << "mean |render - photo| on the diffuse patch, 8-bit codes";
@@ -140,11 +141,11 @@ TEST_F(EndToEnd, StreamedObservationMapFileMatchesTheInMemoryMap) {
   // The session's cached file: built once, reused, rebuilt after an HDR view changes.
   auto cached = session_obsmap_file(session.value(), 20, 12);
   ASSERT_TRUE(cached) << cached.error().describe();
-  EXPECT_EQ(cached.value(), session->dir() / "obsmap" / "20x12.vdobs");
+  EXPECT_EQ(cached.value(), session->layout().obsmap_file(20, 12));
   const auto built_at = fs::last_write_time(cached.value());
   ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
   EXPECT_EQ(fs::last_write_time(cached.value()), built_at) << "a current file is reused";
-  const fs::path hdr0 = session->dir() / "hdr" / "view_0000.exr";
+  const fs::path hdr0 = session->layout().hdr_file(0);
   fs::last_write_time(hdr0, built_at + std::chrono::seconds(5));
   ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
   EXPECT_NE(fs::last_write_time(cached.value()), built_at) << "a newer HDR view makes it stale";

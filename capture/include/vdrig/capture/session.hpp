@@ -1,4 +1,5 @@
-// Session: one capture on disk, the unit every later stage reads.
+// Session: one capture on disk, the unit every later stage reads. Where each file of the folder lives (frames,
+// and what later stages add: hdr/, calib/, obsmap/, maps/, renders/) is SessionLayout's (session_layout.hpp).
 //
 //   SESSION/manifest.json   what was planned: format version, rig config, scheme, the planned views (direction,
 //                           pan/tilt target) and exposures, software version. Written once, atomically.
@@ -16,8 +17,6 @@
 //   view_complete line is recaptured whole on resume (its journaled frames were never used). What a completed view
 //   promises is unchanged: its frame files decode and hold what the lines say. A torn batch (crash mid-write) is
 //   a torn last line plus complete frame lines without a view_complete: dropped and ignored respectively on open.
-//   SESSION/frames/         view_VVVV_eEE.png (8-bit or 16-bit PNG, BGR codes as the camera delivered them).
-//   Later stages write their own subfolders (hdr/, calib/, obs/, maps/, renders/).
 #pragma once
 
 #include <filesystem>
@@ -29,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/frame.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/result.hpp"
@@ -90,6 +90,8 @@ class Session {
   static Result<Session> open(const std::filesystem::path& dir);
 
   const std::filesystem::path& dir() const { return dir_; }
+  /// Where the session's files live.
+  SessionLayout layout() const { return SessionLayout(dir_); }
   const Manifest& manifest() const { return manifest_; }
   const std::vector<FrameRecord>& frames() const { return frames_; }
 

@@ -1,0 +1,31 @@
+// Capture stage: plan the views of a scheme on a rig and capture them into a new session folder.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "vdrig/capture/session.hpp"
+#include "vdrig/rig/registry.hpp"
+
+namespace vdrig::pipeline {
+
+/// A registry with every backend of this build: the simulator and the hardware compiled in.
+rig::BackendRegistry full_registry();
+
+struct CaptureRequest {
+  std::filesystem::path out_dir;
+  nlohmann::json rig_config;         // e.g. sim::sim_rig_config({{"scene", "patchwork"}})
+  std::string scheme = "latlong:6";  // see capture/schemes.hpp
+  std::vector<double> exposures_s = {0.25};
+  std::function<void(int done, int total)> on_view;
+};
+
+/// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
+/// The stage geometry and the surface size come from the simulator's ground truth for a simulated rig; a hardware rig
+/// gets the defaults of rig::RigGeometry and capture::Manifest (its config's "geometry" section is not read here).
+Result<capture::Session> capture_session(const CaptureRequest& request);
+
+}  // namespace vdrig::pipeline

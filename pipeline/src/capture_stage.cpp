@@ -1,0 +1,60 @@
+#include "vdrig/pipeline/capture_stage.hpp"
+
+#include "ground_truth.hpp"
+#include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/schemes.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+
+namespace vdrig::pipeline {
+
+rig::BackendRegistry full_registry() {
+  rig::BackendRegistry registry;
+  sim::register_backends(registry);
+  rig::register_hardware_backends(registry);
+  return registry;
+}
+
+Result<capture::Session> capture_session(const CaptureRequest& req) {
+  auto logger = log::get("capture");
+  auto rig = full_registry().make_rig(req.rig_config);
+  if (!rig) return rig.error();
+  auto samples = capture::generate(req.scheme);
+  if (!samples) return samples.error();
+  auto truth = ground_truth_of(req.rig_config);
+  if (!truth) return truth.error();
+  // The stage's geometry: the simulator knows it; a hardware rig config states it ("geometry": {"distance_mm"}).
+  rig::RigGeometry geometry;
+  if (*truth) geometry = (*truth)->geometry;
+  const auto plan = capture::plan_targets(geometry, rig->stage->spec(), samples->directions);
+  for (const auto& u : plan.unreachable) {
+    const SphericalDir s = spherical_from_direction(u.direction);
+    logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits", u.index,
+                 rad_to_deg(s.azimuth_rad), rad_to_deg(s.zenith_rad));
+  }
+  capture::Manifest manifest;
+  manifest.rig_config = req.rig_config;
+  manifest.scheme = req.scheme;
+  std::string bracket = "fixed:";
+  for (size_t i = 0; i < req.exposures_s.size(); ++i) bracket += (i ? "," : "") + std::to_string(req.exposures_s[i]);
+  manifest.bracket = bracket;
+  manifest.exposures_s = req.exposures_s;
+  for (const auto& t : plan.reachable)
+    manifest.views.push_back({static_cast<int>(manifest.views.size()), t.direction, t.pan_tilt});
+  if (*truth) {
+    manifest.surface_width_mm = (*truth)->surface_width_mm;
+    manifest.surface_height_mm = (*truth)->surface_height_mm;
+  }
+  auto session = capture::Session::create(req.out_dir, manifest);
+  if (!session) return session.error();
+  VDRIG_TRY(rig->stage->home());
+  capture::CaptureOptions options;
+  options.exposures_s = req.exposures_s;
+  options.on_progress = [&](const capture::CaptureProgress& p) {
+    if (req.on_view) req.on_view(p.views_done, p.views_total);
+  };
+  VDRIG_TRY(capture::run_capture(rig.value(), session.value(), options));
+  return session;
+}
+
+}  // namespace vdrig::pipeline

@@ -1,0 +1,81 @@
+#include "vdrig/pipeline/hdr_stage.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "ground_truth.hpp"
+#include "vdrig/calib/hdr.hpp"
+
+namespace vdrig::pipeline {
+namespace fs = std::filesystem;
+
+Result<ResponseCurve> session_response(const capture::Session& session) {
+  const fs::path calibrated = session.layout().response_file();
+  if (fs::exists(calibrated)) {
+    std::ifstream in(calibrated);
+    auto j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, calibrated.string() + ": not valid JSON");
+    return ResponseCurve::from_json(j);
+  }
+  auto truth = ground_truth_of(session.manifest().rig_config);
+  if (!truth) return truth.error();
+  if (!*truth)
+    return make_error(ErrorCode::kNotFound, "no response curve: run radiometric calibration (" +
+                                                calibrated.lexically_relative(session.dir()).string() + ")");
+  return (*truth)->response;
+}
+
+Status merge_session_hdr(const capture::Session& session) {
+  auto response = session_response(session);
+  if (!response) return response.error();
+  const capture::SessionLayout layout = session.layout();
+  std::error_code ec;
+  fs::create_directories(layout.hdr_dir(), ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + layout.hdr_dir().string() + ": " + ec.message());
+  const auto& views = session.manifest().views;
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  Status first_error;
+  auto worker = [&] {
+    for (size_t i = next++; i < views.size(); i = next++) {
+      const int v = views[i].index;
+      if (!session.view_complete(v) || fs::exists(layout.hdr_file(v))) continue;
+      std::vector<Frame> frames;
+      Status status;
+      for (const auto& rec : session.frames_of_view(v)) {
+        auto img = session.load_image(rec);
+        if (!img) {
+          status = img.error();
+          break;
+        }
+        Frame f;
+        f.image = img.value();
+        f.exposure_s = rec.exposure_s;
+        f.gain = rec.gain;
+        f.bits = rec.bits;
+        frames.push_back(std::move(f));
+      }
+      // The merge wants a monotonic bracket: sort by effective exposure.
+      std::sort(frames.begin(), frames.end(),
+                [](const Frame& a, const Frame& b) { return a.exposure_s * a.gain < b.exposure_s * b.gain; });
+      if (status) {
+        auto hdr = calib::merge_hdr(frames, response.value());
+        status = hdr ? calib::write_hdr_exr(layout.hdr_file(v), hdr.value(), ExrPixelType::kFloat) : hdr.status();
+      }
+      if (!status) {
+        std::lock_guard lock(error_mutex);
+        if (first_error)
+          first_error = make_error(status.error().code, "view " + std::to_string(v) + ": " + status.error().message);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned k = 0; k < std::max(1u, std::thread::hardware_concurrency()); ++k) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  return first_error;
+}
+
+}  // namespace vdrig::pipeline
