@@ -139,7 +139,6 @@ TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
   fs::remove_all(d);
 }
 
-
 TEST(FileIo, ErrnoMapsToNoSpaceOnlyForAFullDiskOrQuota) {
   EXPECT_EQ(error_code_from_errno(ENOSPC), ErrorCode::kNoSpace);
   EXPECT_EQ(error_code_from_errno(EDQUOT), ErrorCode::kNoSpace);
