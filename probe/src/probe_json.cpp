@@ -35,8 +35,10 @@ Result<Vec3d> read_triple(const json& object, const char* key, const std::string
   return read_triple(*it, where + ": \"" + key + "\"");
 }
 
-/// Parses `text` as a JSON object of the given format and version.
-Result<json> parse_document(const std::string& text, const char* format, int version) {
+/// Parses `text` as a JSON object of the given format and version and returns its array `key`; `source` receives
+/// the "probe" string (empty when absent).
+Result<json> document_array(const std::string& text, const char* format, int version, const char* key,
+                            std::string* source) {
   json j;
   try {
     j = json::parse(text);
@@ -51,12 +53,12 @@ Result<json> parse_document(const std::string& text, const char* format, int ver
   if (v == j.end() || !v->is_number_integer() || v->get<int64_t>() != version)
     return corrupt(std::string(format) + ": unsupported \"version\" (this build reads " + std::to_string(version) +
                    ")");
-  return j;
-}
-
-std::string source_of(const json& j) {
-  const auto it = j.find("probe");
-  return it != j.end() && it->is_string() ? it->get<std::string>() : std::string();
+  const auto probe = j.find("probe");
+  *source = probe != j.end() && probe->is_string() ? probe->get<std::string>() : std::string();
+  const auto array = j.find(key);
+  if (array == j.end() || !array->is_array())
+    return corrupt(std::string(format) + ": \"" + key + "\" must be an array");
+  return *array;
 }
 
 }  // namespace
@@ -82,14 +84,9 @@ std::string lights_to_json(const LightsDocument& document) {
 }
 
 Result<LightsDocument> lights_from_json(const std::string& text) {
-  auto parsed = parse_document(text, kLightsFormat, kLightsFormatVersion);
-  if (!parsed) return parsed.error();
-  const json& j = *parsed;
   LightsDocument doc;
-  doc.source = source_of(j);
-  const auto lights = j.find("lights");
-  if (lights == j.end() || !lights->is_array())
-    return corrupt(std::string(kLightsFormat) + ": \"lights\" must be an array");
+  const auto lights = document_array(text, kLightsFormat, kLightsFormatVersion, "lights", &doc.source);
+  if (!lights) return lights.error();
   for (size_t k = 0; k < lights->size(); ++k) {
     const json& e = (*lights)[k];
     const std::string where = std::string(kLightsFormat) + ": light " + std::to_string(k);
@@ -125,13 +122,10 @@ std::string sh9_to_json(const Sh9Document& document) {
 }
 
 Result<Sh9Document> sh9_from_json(const std::string& text) {
-  auto parsed = parse_document(text, kSh9Format, kSh9FormatVersion);
-  if (!parsed) return parsed.error();
-  const json& j = *parsed;
   Sh9Document doc;
-  doc.source = source_of(j);
-  const auto coeffs = j.find("radiance_coefficients");
-  if (coeffs == j.end() || !coeffs->is_array() || coeffs->size() != kSh9Count)
+  const auto coeffs = document_array(text, kSh9Format, kSh9FormatVersion, "radiance_coefficients", &doc.source);
+  if (!coeffs) return coeffs.error();
+  if (coeffs->size() != kSh9Count)
     return corrupt(std::string(kSh9Format) + ": \"radiance_coefficients\" must be an array of " +
                    std::to_string(kSh9Count) + " RGB triples");
   for (int i = 0; i < kSh9Count; ++i) {
