@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "vdrig/probe/irradiance_error.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
@@ -27,25 +28,6 @@ double best_seconds(int runs, const std::function<void()>& f) {
     best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   return best;
-}
-
-struct Errors {
-  double mean = 0, max = 0, of_mean = 0;
-};
-
-Errors errors(const std::vector<Vec3d>& normals, const std::vector<Rgb>& ref,
-              const std::function<Rgb(const Vec3d&)>& approx) {
-  Errors e;
-  double abs_sum = 0, ref_sum = 0;
-  for (size_t k = 0; k < normals.size(); ++k) {
-    const double r = luminance(ref[k]), d = std::abs(luminance(approx(normals[k])) - r);
-    e.mean += d / r / normals.size();
-    e.max = std::max(e.max, d / r);
-    abs_sum += d;
-    ref_sum += r;
-  }
-  e.of_mean = abs_sum / ref_sum;
-  return e;
 }
 
 }  // namespace
@@ -73,13 +55,15 @@ int main() {
     for (int count : {64, 256}) {
       std::vector<DirectionalLight> lights;
       const double s = best_seconds(5, [&] { lights = median_cut(p, count); });
-      const Errors e = errors(normals, ref, [&](const Vec3d& n) { return irradiance_from_lights(lights, n); });
+      const auto e = irradiance_error(
+          normals, [&](const Vec3d& n) { return irradiance_from_lights(lights, n); }, ref);
       std::printf("%-10s %-16s %10.2f %10.2f %10.2f %12.2f\n", name, (std::to_string(count) + " lights").c_str(),
                   1e3 * s, 100 * e.mean, 100 * e.max, 100 * e.of_mean);
     }
     Sh9 sh;
     const double s = best_seconds(5, [&] { sh = project_sh9(p); });
-    const Errors e = errors(normals, ref, [&](const Vec3d& n) { return sh9_irradiance(sh, n); });
+    const auto e = irradiance_error(
+        normals, [&](const Vec3d& n) { return sh9_irradiance(sh, n); }, ref);
     std::printf("%-10s %-16s %10.2f %10.2f %10.2f %12.2f\n", name, "SH-9 projection", 1e3 * s, 100 * e.mean,
                 100 * e.max, 100 * e.of_mean);
   }

@@ -3,7 +3,6 @@
 // `vdrig probe fuse A.exr:X,Y,Z B.exr:X,Y,Z ... --room ... --at X,Y,Z`: fuse probes on a box proxy at a new position.
 #include <cstdio>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -14,6 +13,7 @@
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
+#include "vdrig/probe/probe_json.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
 #include "vdrig/probe/shading.hpp"
 
@@ -22,25 +22,14 @@ namespace {
 
 Error usage(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); }
 
-// JSON files written here carry a format version (design notes: every file format has one).
-constexpr int kLightsFormatVersion = 1;
-constexpr int kSh9FormatVersion = 1;
-
-nlohmann::json rgb_json(const probe::Rgb& c) { return nlohmann::json::array({c.x(), c.y(), c.z()}); }
-
-nlohmann::json angles_json(const Vec3d& d) {
-  const SphericalDir s = spherical_from_direction(d);
-  return {{"azimuth_deg", rad_to_deg(s.azimuth_rad)}, {"zenith_deg", rad_to_deg(s.zenith_rad)}};
-}
-
 Result<probe::Probe> load(const std::string& file, bool as_design_notes) {
   probe::LoadOptions o;
   o.azimuth = as_design_notes ? probe::FileAzimuth::kDesignNotes : probe::FileAzimuth::kPanorama;
   return probe::load_probe(file, o);
 }
 
-Status write_json(const std::string& out, const nlohmann::json& j) {
-  VDRIG_TRY(write_file_atomic(out, j.dump(2) + "\n"));
+Status write_text(const std::string& out, const std::string& text) {
+  VDRIG_TRY(write_file_atomic(out, text));
   std::printf("wrote %s\n", out.c_str());
   return Status::ok();
 }
@@ -66,41 +55,16 @@ Status run_lights(const std::string& file, bool design_notes, int count, const s
   if (!probe::is_power_of_two(count)) return usage("--count must be a power of two, got " + std::to_string(count));
   auto p = load(file, design_notes);
   if (!p) return p.error();
-  const auto lights = probe::median_cut(*p, count);
-  nlohmann::json j = {{"format", "vdrig.probe.lights"},
-                      {"version", kLightsFormatVersion},
-                      {"probe", file},
-                      {"method", "median cut (Debevec 2005)"},
-                      {"power_unit",
-                       "integral of radiance over the region (radiance x sr); E(n) = sum power max(0, "
-                       "n.d)"},
-                      {"lights", nlohmann::json::array()}};
-  for (const auto& l : lights) {
-    nlohmann::json e = angles_json(l.direction);
-    e["direction"] = {l.direction.x(), l.direction.y(), l.direction.z()};
-    e["power"] = rgb_json(l.power);
-    e["solid_angle_sr"] = l.solid_angle_sr;
-    j["lights"].push_back(e);
-  }
-  std::printf("%zu median-cut lights, total power %.6g (luminance)\n", lights.size(),
+  const probe::LightsDocument lights{file, probe::median_cut(*p, count)};
+  std::printf("%zu median-cut lights, total power %.6g (luminance)\n", lights.lights.size(),
               probe::luminance(probe::total_power(*p)));
-  return write_json(out, j);
+  return write_text(out, probe::lights_to_json(lights));
 }
 
 Status run_irradiance(const std::string& file, bool design_notes, const std::string& out) {
   auto p = load(file, design_notes);
   if (!p) return p.error();
-  const probe::Sh9 sh = probe::project_sh9(*p);
-  nlohmann::json j = {
-      {"format", "vdrig.probe.sh9"},
-      {"version", kSh9FormatVersion},
-      {"probe", file},
-      {"basis", "real SH, design notes' normalisation with Condon-Shortley phase, i = l(l+1)+m"},
-      {"radiance_coefficients", nlohmann::json::array()},
-      {"cosine_factors", {probe::sh9_cosine_factor(0), probe::sh9_cosine_factor(1), probe::sh9_cosine_factor(2)}},
-      {"note", "E(n) = sum_i cosine_factors[l(i)] * radiance_coefficients[i] * y_i(n)"}};
-  for (const auto& c : sh.coeffs) j["radiance_coefficients"].push_back(rgb_json(c));
-  return write_json(out, j);
+  return write_text(out, probe::sh9_to_json({file, probe::project_sh9(*p)}));
 }
 
 Result<probe::Rgb> parse_albedo(const std::string& text) {
@@ -112,14 +76,14 @@ Result<probe::Rgb> parse_albedo(const std::string& text) {
   return a;
 }
 
-struct RenderArgs {
-  std::string file, albedo = "0.8,0.8,0.8", mode = "sh", out = "sphere.png";
+// The diffuse sphere's options, shared by `render` and `fuse --render`.
+struct SphereArgs {
+  std::string albedo = "0.8,0.8,0.8", mode = "sh";
   int size_px = 256, count = 256;
   double gamma = 0;
-  bool design_notes = false;
 };
 
-Status run_render(const RenderArgs& a) {
+Result<probe::SphereRenderOptions> sphere_options(const SphereArgs& a) {
   probe::SphereRenderOptions o;
   auto albedo = parse_albedo(a.albedo);
   if (!albedo) return albedo.error();
@@ -131,14 +95,30 @@ Status run_render(const RenderArgs& a) {
   std::string why;
   if (!o.is_valid(&why)) return usage(why);
   if (a.gamma < 0) return usage("--gamma must be >= 0 (0: automatic)");
+  return o;
+}
+
+Status write_sphere(const probe::Probe& p, const probe::SphereRenderOptions& o, double gamma, const std::string& out) {
+  auto image = probe::render_sphere_image(p, o, gamma);
+  if (!image) return image.error();
+  VDRIG_TRY(write_png(out, image->bgr8));
+  std::printf("wrote %s (%d x %d, %s, tone-mapping gamma %.4g)\n", out.c_str(), o.size_px, o.size_px,
+              probe::to_string(o.mode), image->gamma);
+  return Status::ok();
+}
+
+struct RenderArgs {
+  std::string file, out = "sphere.png";
+  bool design_notes = false;
+  SphereArgs sphere;
+};
+
+Status run_render(const RenderArgs& a) {
+  auto o = sphere_options(a.sphere);
+  if (!o) return o.error();
   auto p = load(a.file, a.design_notes);
   if (!p) return p.error();
-  const cv::Mat radiance = probe::render_diffuse_sphere(*p, o);
-  const double gamma = a.gamma > 0 ? a.gamma : probe::auto_gamma(radiance);
-  VDRIG_TRY(write_png(a.out, probe::tone_map_srgb8(radiance, gamma)));
-  std::printf("wrote %s (%d x %d, %s, tone-mapping gamma %.4g)\n", a.out.c_str(), o.size_px, o.size_px,
-              probe::to_string(o.mode), gamma);
-  return Status::ok();
+  return write_sphere(*p, *o, a.sphere.gamma, a.out);
 }
 
 // ---- vdrig probe fuse ----------------------------------------------------------------------------------------------
@@ -170,7 +150,7 @@ struct FuseArgs {
   double resolution_exponent = probe::FusionOptions{}.resolution_exponent;
   double min_cosine = probe::FusionOptions{}.min_cosine;
   bool design_notes = false;
-  RenderArgs sphere;  // --albedo, --mode, --count, --size, --gamma for --render
+  SphereArgs sphere;  // --albedo, --mode, --count, --size, --gamma for --render
 };
 
 Status run_fuse(const FuseArgs& a) {
@@ -181,6 +161,12 @@ Status run_fuse(const FuseArgs& a) {
   o.min_cosine = a.min_cosine;
   std::string why;
   if (!o.is_valid(&why)) return usage(why);
+  std::optional<probe::SphereRenderOptions> sphere;
+  if (!a.render.empty()) {
+    auto r = sphere_options(a.sphere);
+    if (!r) return r.error();
+    sphere = *r;
+  }
   auto room = parse_numbers(a.room, 6, "--room");
   if (!room) return room.error();
   const probe::ProxyBox box{Vec3d((*room)[0], (*room)[1], (*room)[2]), Vec3d((*room)[3], (*room)[4], (*room)[5])};
@@ -217,30 +203,24 @@ Status run_fuse(const FuseArgs& a) {
   std::printf("; %d pixels (%.4f sr) seen by no probe\n", stats.uncovered_pixels, stats.uncovered_sr);
   VDRIG_TRY(probe::save_probe(a.out, *fused));
   std::printf("wrote %s\n", a.out.c_str());
-  if (a.render.empty()) return Status::ok();
-
+  if (!sphere) return Status::ok();
   // A diffuse sphere at the new position, lit by the fused map (same options as `vdrig probe render`).
-  probe::SphereRenderOptions r;
-  auto albedo = parse_albedo(a.sphere.albedo);
-  if (!albedo) return albedo.error();
-  r.albedo = *albedo;
-  if (!probe::parse_shading_mode(a.sphere.mode, &r.mode)) return usage("--mode must be brute, median-cut or sh");
-  r.size_px = a.sphere.size_px;
-  r.light_count = a.sphere.count;
-  r.brute_width = 256;
-  if (!r.is_valid(&why)) return usage(why);
-  if (a.sphere.gamma < 0) return usage("--gamma must be >= 0 (0: automatic)");
-  const cv::Mat radiance = probe::render_diffuse_sphere(*fused, r);
-  const double gamma = a.sphere.gamma > 0 ? a.sphere.gamma : probe::auto_gamma(radiance);
-  VDRIG_TRY(write_png(a.render, probe::tone_map_srgb8(radiance, gamma)));
-  std::printf("wrote %s (%d x %d, %s, tone-mapping gamma %.4g)\n", a.render.c_str(), r.size_px, r.size_px,
-              probe::to_string(r.mode), gamma);
-  return Status::ok();
+  return write_sphere(*fused, *sphere, a.sphere.gamma, a.render);
 }
 
 const CommandRegistrar registrar([](CLI::App& root) {
   auto* cmd_probe = root.add_subcommand("probe", "light probes: info, median-cut lights, SH irradiance, render, fuse");
   cmd_probe->require_subcommand(1);
+  auto add_sphere_options = [](CLI::App* cmd, SphereArgs& sphere) {
+    cmd->add_option("--albedo", sphere.albedo, "sphere albedo R,G,B in [0, 1]")->capture_default_str();
+    cmd->add_option("--mode", sphere.mode, "sphere shading: brute | median-cut | sh")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"brute", "median-cut", "sh"}));
+    cmd->add_option("--count", sphere.count, "median-cut lights (power of two)")->capture_default_str();
+    cmd->add_option("--size", sphere.size_px, "sphere image side, pixels")->capture_default_str();
+    cmd->add_option("--gamma", sphere.gamma, "tone mapping y = 1 - exp(-gamma x); 0: mean lit pixel -> 0.5")
+        ->capture_default_str();
+  };
   auto add_file = [](CLI::App* cmd, std::string& file, bool& design_notes) {
     cmd->add_option("file", file, "equirectangular OpenEXR probe (2:1, row 0 up)")->required();
     cmd->add_flag("--design-notes-azimuth", design_notes,
@@ -284,14 +264,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
     auto* cmd = cmd_probe->add_subcommand("render", "a diffuse sphere lit by the probe, tone mapped to PNG");
     auto a = std::make_shared<RenderArgs>();
     add_file(cmd, a->file, a->design_notes);
-    cmd->add_option("--albedo", a->albedo, "R,G,B in [0, 1]")->capture_default_str();
-    cmd->add_option("--mode", a->mode, "brute | median-cut | sh")
-        ->capture_default_str()
-        ->check(CLI::IsMember({"brute", "median-cut", "sh"}));
-    cmd->add_option("--count", a->count, "median-cut lights (power of two)")->capture_default_str();
-    cmd->add_option("--size", a->size_px, "image side, pixels")->capture_default_str();
-    cmd->add_option("--gamma", a->gamma, "tone mapping y = 1 - exp(-gamma x); 0: mean lit pixel -> 0.5")
-        ->capture_default_str();
+    add_sphere_options(cmd, a->sphere);
     cmd->add_option("--out", a->out, "PNG to write")->capture_default_str();
     cmd->callback([a] { finish(run_render(*a)); });
   }
@@ -312,14 +285,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_flag("--design-notes-azimuth", a->design_notes,
                   "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
     cmd->add_option("--render", a->render, "also render a diffuse sphere lit by the fused probe to this PNG");
-    cmd->add_option("--albedo", a->sphere.albedo, "sphere albedo R,G,B in [0, 1]")->capture_default_str();
-    cmd->add_option("--mode", a->sphere.mode, "sphere shading: brute | median-cut | sh")
-        ->capture_default_str()
-        ->check(CLI::IsMember({"brute", "median-cut", "sh"}));
-    cmd->add_option("--count", a->sphere.count, "median-cut lights (power of two)")->capture_default_str();
-    cmd->add_option("--size", a->sphere.size_px, "sphere image side, pixels")->capture_default_str();
-    cmd->add_option("--gamma", a->sphere.gamma, "tone mapping y = 1 - exp(-gamma x); 0: mean lit pixel -> 0.5")
-        ->capture_default_str();
+    add_sphere_options(cmd, a->sphere);
     cmd->callback([a] { finish(run_fuse(*a)); });
   }
 });

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 
@@ -224,37 +225,18 @@ std::vector<FrameRecord> Session::frames_of_view(int view) const {
 
 namespace {
 
-ErrorCode io_code(int err) { return err == ENOSPC || err == EDQUOT ? ErrorCode::kNoSpace : ErrorCode::kIo; }
-
 /// Writes `bytes` to `path` (created or truncated) and starts its writeback without waiting for it, so the disk
 /// works while the next frame is being taken; durability comes later from fsync_path().
 Status write_frame_file(const fs::path& path, const std::vector<uchar>& bytes) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return make_error(io_code(errno), "create " + path.string() + ": " + std::strerror(errno));
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int err = errno;
-      ::close(fd);
-      return make_error(io_code(err), "write " + path.string() + ": " + std::strerror(err));
-    }
-    done += static_cast<size_t>(n);
+  if (fd < 0) return error_from_errno(errno, "create " + path.string());
+  if (const int err = write_all(fd, bytes.data(), bytes.size()); err != 0) {
+    ::close(fd);
+    return error_from_errno(err, "write " + path.string());
   }
   // Only a hint (an error here resurfaces at fsync): queue the pages for writeback now.
   (void)::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
-  if (::close(fd) != 0) return make_error(io_code(errno), "close " + path.string() + ": " + std::strerror(errno));
-  return Status::ok();
-}
-
-Status fsync_path(const fs::path& path, bool directory) {
-  const int fd = ::open(path.c_str(), (directory ? (O_RDONLY | O_DIRECTORY) : O_RDONLY) | O_CLOEXEC);
-  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
-  const int rc = ::fsync(fd);
-  const int err = errno;
-  ::close(fd);
-  if (rc != 0) return make_error(io_code(err), "fsync " + path.string() + ": " + std::strerror(err));
+  if (::close(fd) != 0) return error_from_errno(errno, "close " + path.string());
   return Status::ok();
 }
 
@@ -283,9 +265,9 @@ Status Session::append_journal(const std::string& text) {
   ::close(fd);
   if (n != static_cast<ssize_t>(text.size())) {
     const int err = n < 0 ? write_errno : ENOSPC;  // a short write to a regular file means the disk is full
-    return make_error(io_code(err), "append to journal: " + std::string(std::strerror(err)));
+    return error_from_errno(err, "append to journal");
   }
-  if (rc != 0) return make_error(io_code(sync_errno), "fsync journal: " + std::string(std::strerror(sync_errno)));
+  if (rc != 0) return error_from_errno(sync_errno, "fsync journal");
   return Status::ok();
 }
 

@@ -10,13 +10,8 @@
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
-#include <random>
 
 namespace vdrig {
 namespace fs = std::filesystem;
@@ -39,71 +34,10 @@ void ExrImage::add(const std::string& name, cv::Mat plane) {
   channels.push_back(plane.isContinuous() ? plane : plane.clone());
 }
 
-namespace {
-
-std::string errno_text() { return std::strerror(errno); }
-
-fs::path temp_sibling(const fs::path& path) {
-  static thread_local std::mt19937_64 rng{std::random_device{}()};
-  // Built with append: GCC 12 warns falsely (-Wrestrict) on chained operator+ here.
-  std::string name = ".";
-  name.append(path.filename().string()).append(".tmp").append(std::to_string(rng() % 1000000000));
-  return path.parent_path() / name;
-}
-
-ErrorCode io_code() { return errno == ENOSPC || errno == EDQUOT ? ErrorCode::kNoSpace : ErrorCode::kIo; }
-
-Status fsync_path(const fs::path& path, bool directory) {
-  const int fd = ::open(path.c_str(), directory ? (O_RDONLY | O_DIRECTORY) : O_RDONLY);
-  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + errno_text());
-  const int rc = ::fsync(fd);
-  const ErrorCode code = io_code();
-  ::close(fd);
-  if (rc != 0) return make_error(code, "fsync " + path.string() + ": " + errno_text());
-  return Status::ok();
-}
-
-/// Moves a fully written temporary file into place durably.
-Status commit_temp(const fs::path& tmp, const fs::path& path) {
-  if (auto s = fsync_path(tmp, false); !s) {
-    fs::remove(tmp);
-    return s;
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const Error e = make_error(ErrorCode::kIo, "rename to " + path.string() + ": " + errno_text());
-    fs::remove(tmp);
-    return e;
-  }
-  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
-  return fsync_path(dir, true);
-}
-
-}  // namespace
-
-Status write_file_atomic(const fs::path& path, const std::string& bytes) {
-  const fs::path tmp = temp_sibling(path);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return make_error(io_code(), "create " + tmp.string() + ": " + errno_text());
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const Error e = make_error(io_code(), "write " + tmp.string() + ": " + errno_text());
-      ::close(fd);
-      fs::remove(tmp);
-      return e;
-    }
-    done += static_cast<size_t>(n);
-  }
-  ::close(fd);
-  return commit_temp(tmp, path);
-}
-
 Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type) {
   if (image.channels.empty())
     return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());
-  const fs::path tmp = temp_sibling(path);
+  const fs::path tmp = temporary_sibling(path);
   try {
     Imf::Header header(image.width, image.height);
     header.compression() = Imf::ZIP_COMPRESSION;
@@ -141,7 +75,7 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
     const bool full = std::strstr(e.what(), "No space") != nullptr;
     return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo, "writing " + path.string() + ": " + e.what());
   }
-  return commit_temp(tmp, path);
+  return commit_temporary(tmp, path);
 }
 
 Result<ExrImage> read_exr(const fs::path& path) {

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <opencv2/core/utility.hpp>
 
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::fitting {
@@ -92,9 +93,7 @@ class Fd {
 };
 
 Error io_error(const std::string& what, const fs::path& path, int err) {
-  const bool full = err == ENOSPC || err == EDQUOT;
-  return make_error(full ? ErrorCode::kNoSpace : ErrorCode::kIo,
-                    what + " " + path.string() + ": " + std::strerror(err));
+  return error_from_errno(err, what + " " + path.string());
 }
 
 Status write_at(int fd, const fs::path& path, const void* data, size_t n, uint64_t offset, const ObsFileOptions& opt) {
@@ -375,8 +374,7 @@ struct ObsMapWriter::Impl {
     if (::rename(tmp_path.c_str(), path.c_str()) != 0) return io_error("renaming into", path, errno);
     finished = true;
     // The rename is durable once the folder is synced; failing that is not worth failing the build for.
-    Fd d(::open(path.parent_path().empty() ? "." : path.parent_path().c_str(), O_RDONLY | O_DIRECTORY));
-    if (d.get() >= 0) ::fsync(d.get());
+    (void)fsync_path(path.parent_path().empty() ? fs::path(".") : path.parent_path(), true);
     log::get("fitting")->info("observation map {} written: {}x{} texels x {} views, {} tiles, {:.1f} MB", path.string(),
                               spec.texels_s, spec.texels_t, views, grid.count(), (offset + index.size()) / 1e6);
     return Status::ok();

@@ -129,4 +129,16 @@ double auto_gamma(const cv::Mat& rgb) {
   return n > 0 && sum > 0 ? std::log(2.0) * n / sum : 1.0;
 }
 
+Result<SphereImage> render_sphere_image(const Probe& probe, const SphereRenderOptions& options, double gamma) {
+  std::string why;
+  if (!options.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, why);
+  if (!(gamma >= 0) || !std::isfinite(gamma))
+    return make_error(ErrorCode::kInvalidArgument, "tone-mapping gamma must be >= 0 (0: automatic)");
+  const cv::Mat radiance = render_diffuse_sphere(probe, options);
+  SphereImage image;
+  image.gamma = gamma > 0 ? gamma : auto_gamma(radiance);
+  image.bgr8 = tone_map_srgb8(radiance, image.gamma);
+  return image;
+}
+
 }  // namespace vdrig::probe

@@ -1,11 +1,16 @@
 // core: conventions, camera model, response curve, settings validation and file I/O.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "vdrig/core/camera.hpp"
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/response.hpp"
@@ -163,6 +168,42 @@ TEST(Settings, CollectsEveryProblemAndAcceptsTheEnvelope) {
   EXPECT_EQ(request.reasons(), "unknown field \"extra\"");
   Settings not_object(nlohmann::json::array(), "sim");
   EXPECT_FALSE(not_object.is_valid(nullptr));
+TEST(FileIo, ErrnoMapsToNoSpaceOnlyForAFullDiskOrQuota) {
+  EXPECT_EQ(error_code_from_errno(ENOSPC), ErrorCode::kNoSpace);
+  EXPECT_EQ(error_code_from_errno(EDQUOT), ErrorCode::kNoSpace);
+  for (int err : {EIO, EACCES, ENOENT, EROFS, 0}) EXPECT_EQ(error_code_from_errno(err), ErrorCode::kIo) << err;
+  const Error e = error_from_errno(ENOSPC, "write /x/y");
+  EXPECT_EQ(e.code, ErrorCode::kNoSpace);
+  EXPECT_EQ(e.message, std::string("write /x/y: ") + std::strerror(ENOSPC));
+}
+
+TEST(FileIo, FsyncPathSyncsFilesAndFoldersAndNamesWhatFailed) {
+  const fs::path d = temp_dir("fsync");
+  ASSERT_TRUE(write_file_atomic(d / "a.txt", "a"));
+  EXPECT_TRUE(fsync_path(d / "a.txt", false));
+  EXPECT_TRUE(fsync_path(d, true));
+  const Status missing = fsync_path(d / "missing", false);
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().code, ErrorCode::kIo);
+  EXPECT_NE(missing.error().message.find((d / "missing").string()), std::string::npos) << missing.describe();
+  EXPECT_FALSE(fsync_path(d / "a.txt", true));  // not a folder
+  fs::remove_all(d);
+}
+
+TEST(FileIo, WriteAllWritesEverythingAndReportsAFullDevice) {
+  const fs::path d = temp_dir("write_all");
+  const std::string text(1 << 20, 'x');
+  const int fd = ::open((d / "big").c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  ASSERT_GE(fd, 0);
+  EXPECT_EQ(write_all(fd, text.data(), text.size()), 0);
+  ::close(fd);
+  EXPECT_EQ(fs::file_size(d / "big"), text.size());
+  fs::remove_all(d);
+  // /dev/full fails every write with ENOSPC: the disk-full path without filling a disk.
+  const int full = ::open("/dev/full", O_WRONLY | O_CLOEXEC);
+  if (full < 0) GTEST_SKIP() << "no /dev/full";
+  EXPECT_EQ(write_all(full, text.data(), 16), ENOSPC);
+  ::close(full);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "vdrig/probe/irradiance_error.hpp"
 #include "vdrig/probe/probe.hpp"
 
 namespace vdrig::probe::testing {
@@ -58,35 +59,6 @@ inline Probe without_solid_angle_weighting(const Probe& p) {
     for (int i = 0; i < p.width(); ++i) q.radiance.at<cv::Vec3f>(j, i) *= s;
   }
   return q;
-}
-
-/// Brute-force E(n) at every normal (computed once; the expensive reference of the accuracy tests).
-inline std::vector<Rgb> reference_irradiance(const Probe& p, const std::vector<Vec3d>& normals) {
-  const IrradianceIntegrator brute(p);
-  std::vector<Rgb> out;
-  for (const auto& n : normals) out.push_back(brute.irradiance(n));
-  return out;
-}
-
-/// Relative error statistics of per-normal luminance irradiance, |E - E_ref| / E_ref (mean and max over normals),
-/// and the mean absolute error relative to the mean irradiance (dim normals weigh less).
-struct ErrorStats {
-  double mean = 0, max = 0, of_mean = 0;
-};
-template <typename A>
-ErrorStats irradiance_error(const std::vector<Vec3d>& normals, A approx, const std::vector<Rgb>& reference) {
-  ErrorStats s;
-  double abs_sum = 0, ref_sum = 0;
-  for (size_t k = 0; k < normals.size(); ++k) {
-    const double ref = luminance(reference[k]);
-    const double e = std::abs(luminance(approx(normals[k])) - ref) / ref;
-    s.mean += e / normals.size();
-    s.max = std::max(s.max, e);
-    abs_sum += e * ref;
-    ref_sum += ref;
-  }
-  s.of_mean = abs_sum / ref_sum;
-  return s;
 }
 
 }  // namespace vdrig::probe::testing

@@ -139,14 +139,14 @@ TEST(MedianCut, IrradianceMatchesBruteForce) {
   for (const char* name : testing::kRealProbes) {
     Probe p;
     ASSERT_TRUE(load_real_probe(name, &p));
-    const auto reference = testing::reference_irradiance(p, normals);
+    const auto reference = reference_irradiance(p, normals);
     for (int count : {64, 256}) {
       const auto lights = median_cut(p, count);
-      const auto err = testing::irradiance_error(
+      const auto err = irradiance_error(
           normals, [&](const Vec3d& n) { return irradiance_from_lights(lights, n); }, reference);
       // The same cut on a map that forgot the solid angle (testing::without_solid_angle_weighting).
       const auto wrong_lights = median_cut(testing::without_solid_angle_weighting(p), count);
-      const auto wrong = testing::irradiance_error(
+      const auto wrong = irradiance_error(
           normals, [&](const Vec3d& n) { return irradiance_from_lights(wrong_lights, n); }, reference);
       std::printf(
           "%-9s %3d lights: E error mean %.2f %%, max %.2f %%, mean |dE| / mean E %.2f %%  (without solid "

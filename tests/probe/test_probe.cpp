@@ -170,8 +170,8 @@ TEST(Probe, ResamplingKeepsPowerAndIrradiance) {
   const IrradianceIntegrator cheap(p, 256);
   EXPECT_EQ(cheap.width(), 256);
   const auto normals = fibonacci_directions(64);
-  const auto err = testing::irradiance_error(
-      normals, [&](const Vec3d& n) { return cheap.irradiance(n); }, testing::reference_irradiance(p, normals));
+  const auto err = irradiance_error(
+      normals, [&](const Vec3d& n) { return cheap.irradiance(n); }, reference_irradiance(p, normals));
   std::printf("interior: brute-force E on a 256-wide map vs 1024: mean %.2e, max %.2e relative\n", err.mean, err.max);
   // Measured 1.1e-3 mean, 3.8e-3 max: the lamp (luminance 3e4 in one pixel) moves by up to 1.5 map pixels.
   EXPECT_LT(err.mean, 2e-3);

@@ -51,7 +51,7 @@ TEST(Sh9, ExactOnBandLimitedRadiance) {
   double coeff_err = 0;
   for (int i = 0; i < kSh9Count; ++i) coeff_err = std::max(coeff_err, (got.coeffs[i] - truth.coeffs[i]).norm());
   const auto normals = fibonacci_directions(100);
-  const auto brute = testing::reference_irradiance(p, normals);
+  const auto brute = reference_irradiance(p, normals);
   double vs_analytic = 0, brute_vs_analytic = 0;
   for (size_t k = 0; k < normals.size(); ++k) {
     const Rgb exact = sh9_irradiance(truth, normals[k]);
@@ -83,12 +83,12 @@ TEST(Sh9, RealProbesAgainstBruteForce) {
     const Bound& bound = bounds[probe_index];
     Probe p;
     ASSERT_TRUE(load_real_probe(name, &p));
-    const auto reference = testing::reference_irradiance(p, normals);
+    const auto reference = reference_irradiance(p, normals);
     const Sh9 sh = project_sh9(p);
-    const auto err = testing::irradiance_error(
+    const auto err = irradiance_error(
         normals, [&](const Vec3d& n) { return sh9_irradiance(sh, n); }, reference);
     const Sh9 wrong_sh = project_sh9(testing::without_solid_angle_weighting(p));
-    const auto wrong = testing::irradiance_error(
+    const auto wrong = irradiance_error(
         normals, [&](const Vec3d& n) { return sh9_irradiance(wrong_sh, n); }, reference);
     std::printf(
         "%-9s SH-9 E error mean %.2f %%, max %.2f %%, mean |dE| / mean E %.2f %%  (without solid angle: mean "

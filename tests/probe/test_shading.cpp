@@ -2,9 +2,11 @@
 // test_median_cut / test_sh_irradiance, closed forms on a uniform map, and the tone mapper.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 
 #include "probe_support.hpp"
+#include "vdrig/probe/sh_irradiance.hpp"
 #include "vdrig/probe/shading.hpp"
 
 namespace vdrig::probe {
@@ -92,6 +94,44 @@ TEST(Shading, ThreeModesAgreeOnRealProbes) {
     // the visible hemisphere is a subset, so allow the same bounds as those tests.
     EXPECT_LT(mc_err, 0.008) << name;
     EXPECT_LT(sh_err, name == std::string("studio") ? 0.105 : 0.06) << name;
+  }
+}
+
+TEST(Shading, SphereImageIsTheToneMappedRenderWithItsGamma) {
+  // A coloured sky (R, G and B differ, so a channel-order mistake shows) on a small map; SH-9 shading makes the
+  // expected centre pixel exact: albedo / pi * E(view_dir), tone mapped with the gamma reported.
+  const Probe p = synthetic_probe(32, [](const Vec3d& d) { return Rgb(2.0 + d.z(), 1.0 + 0.5 * d.y(), 0.3); });
+  SphereRenderOptions o;
+  o.size_px = 33;  // odd: a pixel centre on the axis
+  o.albedo = Rgb(0.9, 0.5, 0.2);
+  o.mode = ShadingMode::kSh9;
+  o.view_dir = Vec3d::UnitY();
+  const Rgb centre = o.albedo.cwiseProduct(sh9_irradiance(project_sh9(p), Vec3d::UnitY())) / kPi;
+  cv::Mat centre_rgb(1, 1, CV_32FC3);
+  centre_rgb.at<cv::Vec3f>(0, 0) =
+      cv::Vec3f(static_cast<float>(centre.x()), static_cast<float>(centre.y()), static_cast<float>(centre.z()));
+  for (double gamma : {0.0, 0.7}) {
+    auto image = render_sphere_image(p, o, gamma);
+    ASSERT_TRUE(image) << image.error().describe();
+    ASSERT_EQ(image->bgr8.type(), CV_8UC3);
+    ASSERT_EQ(image->bgr8.size(), cv::Size(33, 33));
+    const double expect_gamma = gamma > 0 ? gamma : auto_gamma(render_diffuse_sphere(p, o));
+    EXPECT_EQ(image->gamma, expect_gamma);
+    const cv::Vec3b expect = tone_map_srgb8(centre_rgb, expect_gamma).at<cv::Vec3b>(0, 0);
+    const cv::Vec3b got = image->bgr8.at<cv::Vec3b>(16, 16);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], expect[c], 1) << "gamma " << gamma << " channel " << c;
+    EXPECT_GT(got[2], got[0]) << "red (more light, higher albedo) lands in OpenCV's third channel";
+    EXPECT_EQ(image->bgr8.at<cv::Vec3b>(0, 0), cv::Vec3b(0, 0, 0));  // outside the sphere
+  }
+  o.size_px = 0;
+  auto bad = render_sphere_image(p, o);
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().code, ErrorCode::kInvalidArgument);
+  o.size_px = 33;
+  for (double gamma : {-1.0, std::nan("")}) {
+    auto bad_gamma = render_sphere_image(p, o, gamma);
+    ASSERT_FALSE(bad_gamma) << gamma;
+    EXPECT_EQ(bad_gamma.error().code, ErrorCode::kInvalidArgument);
   }
 }
 

@@ -70,11 +70,10 @@ Status validate_bracket(std::span<const Frame> frames, const ResponseCurve& resp
 
 /// Merges a bracket of the same static scene into relative radiance: per pixel and channel
 ///   E = sum_j w(z_j) inverse(z_j) / t_j  /  sum_j w(z_j),   t_j = exposure_s_j * gain_j,
-/// with w the hat above (clipped codes get no weight at all). (An inverse-variance factor (t_j / X'(z))^2 on top of
-/// the hat was tried: no gain in median error and a far worse tail from dark, clip-biased codes; not kept.) Where
-/// every exposure is clipped in a channel the value comes from the shortest exposure (all saturated, mask |=
-/// kHdrSaturated) or the longest one (all black, mask |= kHdrBlack). An empty `response` means a linear (raw) camera:
-/// ResponseCurve::linear(frames' bits). Row-parallel (cv::parallel_for_) over per-frame lookup tables indexed by code.
+/// with w the hat above (clipped codes get no weight at all). Where every exposure is clipped in a channel the value
+/// comes from the shortest exposure (all saturated, mask |= kHdrSaturated) or the longest one (all black, mask |=
+/// kHdrBlack). An empty `response` means a linear (raw) camera: ResponseCurve::linear(frames' bits). Row-parallel
+/// (cv::parallel_for_) over per-frame lookup tables indexed by code.
 Result<HdrImage> merge_hdr(std::span<const Frame> frames, const ResponseCurve& response);
 
 }  // namespace vdrig::calib

@@ -20,9 +20,8 @@ struct IntrinsicsOptions {
   double outlier_factor = 3.0;
   /// Calibrate again without the outlier views (the report keeps every view's error from the final fit).
   bool drop_outliers = false;
-  /// cornerSubPix half window, pixels: 5 gives an 11x11 window. OpenCV's samples pass 11 (a 23x23 window), which on
-  /// small squares reaches the neighbouring corners: on OpenCV's left*.jpg it corrupts one view (1.2 px RMS) and
-  /// doubles the overall RMS (0.41 vs 0.20 px).
+  /// cornerSubPix half window, pixels: 5 gives an 11x11 window. The window must stay within about half a square's
+  /// image: one reaching the neighbouring corners biases the refined corners (docs/calib.md, Intrinsics).
   int subpix_half_window = 5;
 };
 

@@ -45,7 +45,7 @@ struct RecoveredResponse {
 /// saturation at X = 1 (core's convention) on average over the channels, leaving the mid code near the 0.1..0.3 of a
 /// typical camera. Saturation is estimated by extending g linearly from codes 70..90 % of the range to max_code:
 /// the top codes themselves are poorly determined (few observations, biased by clipping with noise), so the stored
-/// inverse at the last few codes may differ from that estimate (up to ~2x with 1 code of noise).
+/// inverse at the last few codes may differ from that estimate (docs/calib.md gives by how much).
 /// Needs at least two frames (validate_bracket's errors otherwise), and bits <= 12 (kUnsupported above: such
 /// cameras are raw/linear, use ResponseCurve::linear).
 Result<RecoveredResponse> recover_response(std::span<const Frame> frames, const ResponseRecoveryOptions& options = {});

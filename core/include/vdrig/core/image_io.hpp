@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "vdrig/core/file_io.hpp"  // write_file_atomic: the writers here follow its protocol
 #include "vdrig/core/result.hpp"
 
 namespace vdrig {
@@ -38,9 +39,5 @@ Result<ExrImage> read_exr(const std::filesystem::path& path);
 Status write_png(const std::filesystem::path& path, const cv::Mat& image);
 /// Reads an 8- or 16-bit PNG unchanged (depth kept); error if missing or undecodable.
 Result<cv::Mat> read_png(const std::filesystem::path& path);
-
-/// Writes bytes to `path` through a temporary file, fsync, rename, fsync of the folder: a reader never sees a
-/// partially written file.
-Status write_file_atomic(const std::filesystem::path& path, const std::string& bytes);
 
 }  // namespace vdrig

@@ -1,6 +1,8 @@
 // Errors in vdrig come in three tiers:
 //  1. device and I/O failures are values (Status / Result<T>) the caller must handle;
-//  2. bad configuration is rejected once, at validation, with the reason (see Validation below);
+//  2. bad configuration is rejected once, up front, with the reason: a settings or options struct has
+//     `bool is_valid(std::string* why = nullptr) const`, and the function taking it returns kInvalidArgument with
+//     that reason (or VDRIG_CHECKs it when its contract makes validity the caller's duty);
 //  3. broken invariants are VDRIG_CHECK failures that abort loudly.
 #pragma once
 
@@ -78,10 +80,6 @@ class [[nodiscard]] Result {
 };
 
 inline Error make_error(ErrorCode code, std::string message) { return Error{code, std::move(message)}; }
-
-/// Outcome of validating a settings struct up front (after libcamera's CameraConfiguration::validate()):
-/// kValid as given, kAdjusted to the nearest acceptable values (each adjustment logged), kInvalid with a reason.
-enum class Validation { kValid, kAdjusted, kInvalid };
 
 [[noreturn]] void check_failed(const char* expr, const std::string& message, std::source_location where);
 

@@ -101,7 +101,7 @@ BrightestPixel brightest_pixel(const Probe& probe);
 /// Brute-force irradiance E(n) = integral of L(w) max(0, n . w) dw, summed over every pixel of the map (at its
 /// centre direction, with the pixel's exact solid angle). Built once per map, then O(pixels) per normal.
 /// `max_width` > 0 first resamples the map down to that width (resample): E is a cosine-weighted integral, so a
-/// 256-wide map changes it little while being 16x cheaper than 1024 (test_probe measures how little).
+/// smaller map changes it little at a cost proportional to its pixels (docs/probe.md, Rendering, gives the error).
 class IrradianceIntegrator {
  public:
   explicit IrradianceIntegrator(const Probe& probe, int max_width = 0);

@@ -4,8 +4,8 @@
 // The radiance is projected onto the real SH of bands 0..2, L_i = integral of L(w) y_i(w) dw (a sum over the map's
 // pixels with the row solid angle), and the irradiance is E(n) = sum_i A_l(i) L_i y_i(n) with the clamped-cosine
 // factors A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4 (Funk-Hecke). E is exact for radiance of band <= 2; for real
-// maps the dropped bands 3.. carry little of the cosine kernel (A_3 = 0, A_4 = -pi / 24), which is RH's
-// "~1-3 % average error" (bench_probe_lights and test_sh_irradiance measure it on the three real probes).
+// maps the error is what the dropped bands 3.. carry through the cosine kernel (A_3 = 0, A_4 = -pi / 24); docs/probe.md
+// gives it for the real probes.
 //
 // Basis: the design notes' real SH, index i = l (l + 1) + m, K_l^m normalisation and the Condon-Shortley phase,
 // identical to fitting::sh_basis (test_sh_irradiance checks it), written out for bands 0..2 so that probe does not

@@ -43,4 +43,14 @@ cv::Mat tone_map_srgb8(const cv::Mat& rgb, double gamma);
 /// A gamma mapping the mean luminance of the image's non-zero pixels to 0.5 (1 if there are none).
 double auto_gamma(const cv::Mat& rgb);
 
+/// A display image of the sphere (what `vdrig probe render` and `vdrig probe fuse --render` write as PNG).
+struct SphereImage {
+  cv::Mat bgr8;      // tone_map_srgb8 of render_diffuse_sphere
+  double gamma = 0;  // the tone-mapping gamma used
+};
+
+/// render_diffuse_sphere, then tone_map_srgb8 with `gamma`, or with auto_gamma of the render when gamma is 0.
+/// Errors (kInvalidArgument, with the reason): invalid options, gamma negative or not finite.
+Result<SphereImage> render_sphere_image(const Probe& probe, const SphereRenderOptions& options, double gamma = 0);
+
 }  // namespace vdrig::probe

@@ -1,0 +1,40 @@
+// Durable file writes on POSIX: errno mapped to ErrorCode, fsync of files and folders, whole-buffer writes, and the
+// atomic replace protocol (write a temporary sibling, fsync it, rename it over the target, fsync the folder) that
+// every writer of a file a reader may open concurrently or after a crash follows.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+#include "vdrig/core/result.hpp"
+
+namespace vdrig {
+
+/// kNoSpace for ENOSPC and EDQUOT (disk or quota full: the caller may free space and retry), kIo for any other errno.
+ErrorCode error_code_from_errno(int err);
+
+/// An Error with error_code_from_errno(err) and the message "<what>: <strerror(err)>", e.g. what = "write /a/b".
+Error error_from_errno(int err, const std::string& what);
+
+/// fsync()s a file (is_dir false) or a folder (is_dir true, which makes the creations, renames and removals of its
+/// entries durable). Opens it read-only with O_CLOEXEC; EINTR is retried. Errors: "open <path>: ..." or
+/// "fsync <path>: ..." with the code of error_code_from_errno.
+Status fsync_path(const std::filesystem::path& path, bool is_dir);
+
+/// Writes all `size` bytes at fd's current offset, retrying EINTR and continuing after short writes. Returns 0 or
+/// the errno of the failure (ENOSPC when write() makes no progress: on a regular file that means the disk is full).
+int write_all(int fd, const void* data, size_t size);
+
+/// A fresh hidden name beside `path` (".<name>.tmp<random>") for the atomic replace protocol.
+std::filesystem::path temporary_sibling(const std::filesystem::path& path);
+
+/// Completes the atomic replace: fsyncs the fully written `temporary`, renames it to `path` and fsyncs path's folder.
+/// On failure before the rename the temporary is removed and `path` is untouched.
+Status commit_temporary(const std::filesystem::path& temporary, const std::filesystem::path& path);
+
+/// Writes bytes to `path` through a temporary file, fsync, rename, fsync of the folder: a reader never sees a
+/// partially written file. Errors: kNoSpace when the disk is full, kIo otherwise (e.g. a missing folder).
+Status write_file_atomic(const std::filesystem::path& path, const std::string& bytes);
+
+}  // namespace vdrig

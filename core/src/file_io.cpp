@@ -1,0 +1,88 @@
+#include "vdrig/core/file_io.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <random>
+
+namespace vdrig {
+namespace fs = std::filesystem;
+
+ErrorCode error_code_from_errno(int err) {
+  return err == ENOSPC || err == EDQUOT ? ErrorCode::kNoSpace : ErrorCode::kIo;
+}
+
+Error error_from_errno(int err, const std::string& what) {
+  return make_error(error_code_from_errno(err), what + ": " + std::strerror(err));
+}
+
+Status fsync_path(const fs::path& path, bool is_dir) {
+  const int flags = (is_dir ? (O_RDONLY | O_DIRECTORY) : O_RDONLY) | O_CLOEXEC;
+  int fd = -1;
+  do fd = ::open(path.c_str(), flags);
+  while (fd < 0 && errno == EINTR);
+  if (fd < 0) return error_from_errno(errno, "open " + path.string());
+  int rc = 0;
+  do rc = ::fsync(fd);
+  while (rc != 0 && errno == EINTR);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) return error_from_errno(err, "fsync " + path.string());
+  return Status::ok();
+}
+
+int write_all(int fd, const void* data, size_t size) {
+  const auto* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    if (n == 0) return ENOSPC;
+    p += n;
+    size -= static_cast<size_t>(n);
+  }
+  return 0;
+}
+
+fs::path temporary_sibling(const fs::path& path) {
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  // Built with append: GCC 12 warns falsely (-Wrestrict) on chained operator+ here.
+  std::string name = ".";
+  name.append(path.filename().string()).append(".tmp").append(std::to_string(rng() % 1000000000));
+  return path.parent_path() / name;
+}
+
+Status commit_temporary(const fs::path& temporary, const fs::path& path) {
+  std::error_code ignored;
+  if (auto s = fsync_path(temporary, false); !s) {
+    fs::remove(temporary, ignored);
+    return s;
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const Error e = make_error(ErrorCode::kIo, "rename to " + path.string() + ": " + std::strerror(errno));
+    fs::remove(temporary, ignored);
+    return e;
+  }
+  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  return fsync_path(dir, true);
+}
+
+Status write_file_atomic(const fs::path& path, const std::string& bytes) {
+  const fs::path tmp = temporary_sibling(path);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return error_from_errno(errno, "create " + tmp.string());
+  if (const int err = write_all(fd, bytes.data(), bytes.size()); err != 0) {
+    ::close(fd);
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    return error_from_errno(err, "write " + tmp.string());
+  }
+  ::close(fd);
+  return commit_temporary(tmp, path);
+}
+
+}  // namespace vdrig

@@ -1,0 +1,119 @@
+// The JSON files of `vdrig probe lights` and `vdrig probe irradiance`: what is written reads back exactly, and a
+// malformed file is a kCorrupt value naming what is wrong, never an exception.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "probe_support.hpp"
+#include "vdrig/probe/probe_json.hpp"
+
+namespace vdrig::probe {
+namespace {
+
+using testing::synthetic_probe;
+
+// A map with colour and direction structure, so that swapped channels or axes show.
+Probe structured_probe() {
+  return synthetic_probe(32, [](const Vec3d& d) {
+    return Rgb(1.0 + 0.9 * d.x(), 0.5 + 0.4 * d.z() * d.z(), 0.2 + 0.1 * d.y() + (d.z() > 0.9 ? 30.0 : 0.0));
+  });
+}
+
+TEST(ProbeJson, LightsRoundTripExactly) {
+  const Probe p = structured_probe();
+  const LightsDocument doc{"dir/room.exr", median_cut(p, 16)};
+  ASSERT_EQ(doc.lights.size(), 16u);
+  const std::string text = lights_to_json(doc);
+  auto back = lights_from_json(text);
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(back->source, "dir/room.exr");
+  ASSERT_EQ(back->lights.size(), doc.lights.size());
+  for (size_t k = 0; k < doc.lights.size(); ++k) {
+    EXPECT_EQ(back->lights[k].direction, doc.lights[k].direction) << k;
+    EXPECT_EQ(back->lights[k].power, doc.lights[k].power) << k;
+    EXPECT_EQ(back->lights[k].solid_angle_sr, doc.lights[k].solid_angle_sr) << k;
+  }
+  // The angles written for reading by eye describe the same direction (azimuth from +x toward +y).
+  const auto j = nlohmann::json::parse(text);
+  EXPECT_EQ(j.at("format"), "vdrig.probe.lights");
+  EXPECT_EQ(j.at("version"), kLightsFormatVersion);
+  for (size_t k = 0; k < doc.lights.size(); ++k) {
+    const auto& e = j.at("lights").at(k);
+    const Vec3d d = direction_from_spherical(deg_to_rad(e.at("azimuth_deg").get<double>()),
+                                             deg_to_rad(e.at("zenith_deg").get<double>()));
+    EXPECT_LT((d - doc.lights[k].direction).norm(), 1e-12) << k;
+  }
+}
+
+TEST(ProbeJson, Sh9RoundTripsExactly) {
+  const Probe p = structured_probe();
+  const Sh9Document doc{"room.exr", project_sh9(p)};
+  auto back = sh9_from_json(sh9_to_json(doc));
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(back->source, "room.exr");
+  for (int i = 0; i < kSh9Count; ++i) EXPECT_EQ(back->radiance.coeffs[i], doc.radiance.coeffs[i]) << i;
+  const auto j = nlohmann::json::parse(sh9_to_json(doc));
+  EXPECT_EQ(j.at("format"), "vdrig.probe.sh9");
+  for (int l = 0; l < 3; ++l) EXPECT_EQ(j.at("cosine_factors").at(l).get<double>(), sh9_cosine_factor(l));
+}
+
+// Every malformed input gives kCorrupt whose message contains `names`.
+void expect_corrupt(const std::string& text, const std::string& names, bool lights) {
+  Status s;
+  EXPECT_NO_THROW(s = lights ? lights_from_json(text).status() : sh9_from_json(text).status()) << text;
+  ASSERT_FALSE(s) << text;
+  EXPECT_EQ(s.error().code, ErrorCode::kCorrupt) << text;
+  EXPECT_NE(s.error().message.find(names), std::string::npos) << "'" << s.error().message << "' for " << text;
+}
+
+TEST(ProbeJson, MalformedLightsAreErrorsNamingTheProblem) {
+  const std::string head = R"({"format": "vdrig.probe.lights", "version": 1, )";
+  const std::string ok_light = R"({"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": 0.5})";
+  ASSERT_TRUE(lights_from_json(head + R"("lights": [)" + ok_light + "]}")) << "the base case must parse";
+  expect_corrupt("", "invalid JSON", true);
+  expect_corrupt(R"({"format": "vdrig.probe.lights", "version": 1, "lights": [)", "invalid JSON", true);
+  expect_corrupt("[1, 2]", "not a JSON object", true);
+  expect_corrupt(R"({"format": "vdrig.probe.sh9", "version": 1, "lights": []})", "\"format\"", true);
+  expect_corrupt(R"({"version": 1, "lights": []})", "\"format\"", true);
+  expect_corrupt(R"({"format": "vdrig.probe.lights", "version": 2, "lights": []})", "\"version\"", true);
+  expect_corrupt(R"({"format": "vdrig.probe.lights", "version": "1", "lights": []})", "\"version\"", true);
+  expect_corrupt(head + R"("lights": {}})", "\"lights\"", true);
+  expect_corrupt(R"({"format": "vdrig.probe.lights", "version": 1})", "\"lights\"", true);
+  expect_corrupt(head + R"("lights": [1]})", "light 0", true);
+  expect_corrupt(head + R"("lights": [)" + ok_light + R"(, {"power": [1, 2, 3], "solid_angle_sr": 1}]})",
+                 "light 1: missing \"direction\"", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 1], "power": [1, 2, 3], "solid_angle_sr": 1}]})",
+                 "\"direction\" must be an array of 3", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 2], "power": [1, 2, 3], "solid_angle_sr": 1}]})",
+                 "not a unit vector", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, "2", 3], "solid_angle_sr": 1}]})",
+                 "\"power\" must be an array of 3 finite numbers", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, -2, 3], "solid_angle_sr": 1}]})",
+                 "\"power\" must be >= 0", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3]}]})", "\"solid_angle_sr\"", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": -1}]})",
+                 "\"solid_angle_sr\"", true);
+}
+
+TEST(ProbeJson, MalformedSh9IsAnErrorNamingTheProblem) {
+  std::string coeffs;
+  for (int i = 0; i < kSh9Count; ++i) coeffs += std::string(i ? ", " : "") + "[0.1, 0.2, 0.3]";
+  const std::string head = R"({"format": "vdrig.probe.sh9", "version": 1, )";
+  ASSERT_TRUE(sh9_from_json(head + R"("radiance_coefficients": [)" + coeffs + "]}")) << "the base case must parse";
+  expect_corrupt("not json", "invalid JSON", false);
+  expect_corrupt(R"({"format": "vdrig.probe.lights", "version": 1})", "\"format\"", false);
+  expect_corrupt(R"({"format": "vdrig.probe.sh9", "version": 7})", "\"version\"", false);
+  expect_corrupt(head + R"("radiance_coefficients": [[1, 2, 3]]})", "\"radiance_coefficients\"", false);
+  expect_corrupt(R"({"format": "vdrig.probe.sh9", "version": 1})", "\"radiance_coefficients\"", false);
+  expect_corrupt(head + R"("radiance_coefficients": [)" + coeffs + R"(, [1, 2, 3]]})", "\"radiance_coefficients\"",
+                 false);
+  std::string bad = coeffs;
+  bad.replace(bad.rfind("0.3"), 3, "null");
+  expect_corrupt(head + R"("radiance_coefficients": [)" + bad + "]}", "radiance coefficient 8", false);
+}
+
+}  // namespace
+}  // namespace vdrig::probe
