@@ -1,17 +1,7 @@
 // Real spherical harmonics (SH) for per-texel view-dependent radiance, and the linear fitters of the source
 // (zero-hemisphere projection, least-squares optimal projection) plus plain weighted least squares.
 //
-// Conventions (../shared/design-notes.md, "Models"):
-//  - y_i with i = l (l + 1) + m, l in [0, bands), m in [-l, l]; `bands` = n gives n^2 coefficients, n <= 10.
-//  - K_l^m = sqrt((2l+1)(l-|m|)! / (4 pi (l+|m|)!));
-//    m > 0: sqrt2 K cos(m azimuth) P_l^m(cos zenith); m < 0: sqrt2 K sin(-m azimuth) P_l^-m(cos zenith);
-//    m = 0: K P_l^0(cos zenith).
-//  - P_l^m INCLUDES the Condon-Shortley phase (-1)^m (P_m^m = (-1)^m (2m-1)!! (1-x^2)^(m/2), as in the source's
-//    rule 2). The phase only flips the sign of whole basis functions, so the basis is orthonormal on the sphere
-//    either way; it matters only when exchanging coefficients with code using the other convention.
-//  - Evaluation is from the unit direction (x, y, z) without trigonometry: K P_l^m(z) = Q_l^m(z) sin^m(zenith)
-//    and sin^m(zenith) (cos, sin)(m azimuth) = (Re, Im)((x + i y)^m); Q is produced by the normalised (fully
-//    scaled) three-term recurrence, which never forms the large factorials and is stable for all n <= 10.
+// Basis: the real SH of core/sh_basis.hpp (index i = l (l + 1) + m, K_l^m normalisation, Condon-Shortley phase).
 //
 // Fitting. All three methods are linear in the sample values: for a fixed set of N directions (and weights) the
 // K = n^2 coefficients of a channel are c = P f with a K x N operator P. `LinearFitOperator` holds P and applies it
@@ -67,19 +57,17 @@
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
+#include "vdrig/core/sh_basis.hpp"
 
 namespace vdrig::fitting {
 
-inline constexpr int kMaxShBands = 10;
+// The basis lives in core (probe/ uses it too); these names keep fitting's callers unqualified.
+using vdrig::kMaxShBands;
+using vdrig::sh_basis;
+using vdrig::sh_coeff_count;
+using vdrig::sh_index;
 
-/// Number of coefficients of an n-band expansion.
-constexpr int sh_coeff_count(int bands) { return bands * bands; }
-/// Flat index of (l, m).
-constexpr int sh_index(int l, int m) { return l * (l + 1) + m; }
-
-/// All n^2 real SH at a unit direction `dir` into out[0 .. n^2). Precondition: 1 <= bands <= kMaxShBands,
-/// |dir| = 1 (not checked; the result scales with |dir|^l otherwise).
-void sh_basis(int bands, const Vec3d& dir, double* out);
+/// All n^2 real SH at a unit direction (core/sh_basis.hpp) as a vector.
 Eigen::VectorXd sh_basis(int bands, const Vec3d& dir);
 
 /// N x n^2 basis matrix: row j holds the basis at directions[j] (normalised here).

@@ -4,14 +4,11 @@
 // The radiance is projected onto the real SH of bands 0..2, L_i = integral of L(w) y_i(w) dw (a sum over the map's
 // pixels with the row solid angle), and the irradiance is E(n) = sum_i A_l(i) L_i y_i(n) with the clamped-cosine
 // factors A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4 (Funk-Hecke). E is exact for radiance of band <= 2; for real
-// maps the dropped bands 3.. carry little of the cosine kernel (A_3 = 0, A_4 = -pi / 24), which is RH's
-// "~1-3 % average error" (bench_probe_lights and test_sh_irradiance measure it on the three real probes).
+// maps the dropped bands 3.. carry little of the cosine kernel (A_3 = 0, A_4 = -pi / 24); docs/probe.md has the
+// error measured on the real probes.
 //
-// Basis: the design notes' real SH, index i = l (l + 1) + m, K_l^m normalisation and the Condon-Shortley phase,
-// identical to fitting::sh_basis (test_sh_irradiance checks it), written out for bands 0..2 so that probe does not
-// link the fitting module (and its Ceres/zstd dependencies):
-//   y0 = 0.282095; y1 = -0.488603 y; y2 = 0.488603 z; y3 = -0.488603 x; y4 = 1.092548 x y; y5 = -1.092548 y z;
-//   y6 = 0.315392 (3 z^2 - 1); y7 = -1.092548 x z; y8 = 0.546274 (x^2 - y^2).
+// Basis: bands 0..2 of the real SH of core/sh_basis.hpp (index i = l (l + 1) + m, K_l^m normalisation,
+// Condon-Shortley phase), the same basis fitting/ uses.
 #pragma once
 
 #include <array>
