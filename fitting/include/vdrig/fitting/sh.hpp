@@ -22,15 +22,11 @@
 //  - kLsop (least-squares optimal projection, Sloan et al. 2003): minimises int_H (f - sum c_i y_i)^2, giving
 //    A c = b with A_ik = int_H y_i y_k (exact quadrature, cached per band count) and b the ZH coefficients.
 //    A is symmetric positive definite for every n (the y_i are polynomials, linearly independent on any open
-//    set), but ill-conditioned: even-in-z and odd-in-z combinations nearly coincide on H. Measured cond2(A):
-//    13.9 (n=2), 254 (3), 5.9e3 (4), 1.5e5 (5), 4.2e6 (6), 1.2e8 (7), 3.5e9 (8), 1.0e11 (9), 3.2e12 (10)
-//    (tests/fitting/test_sh.cpp re-measures these). The solve itself is a Cholesky (LLT) factorisation of the
-//    exactly computed A and keeps >= 4 significant digits even at n = 10, but cond(A) also amplifies the
-//    quadrature error of b (the Voronoi areas are exact, the rule sum f y dA is not), which shows as large
-//    coefficients cancelling each other and as ringing near the horizon (the "disc-like abnormalities" of the
-//    source). With 2000 well-spread samples LSOP reproduces a band-limited function to ~1e-3 relative RMS (n <= 5);
-//    on a 17 x 17 pan/tilt grid to +-80 deg, which leaves the horizon almost unsampled, LSOP at 36 coefficients
-//    can be worse than ZH. Beyond n = 5 prefer kLeastSquares, smoothing, or hemispherical harmonics (hsh.hpp).
+//    set), but ill-conditioned (even-in-z and odd-in-z combinations nearly coincide on H; cond(A) grows by ~30x
+//    per band, docs/models.md). The solve is a Cholesky (LLT) factorisation of the exactly computed A; cond(A)
+//    also amplifies the quadrature error of b (the Voronoi areas are exact, the rule sum f y dA is not), which
+//    shows as large coefficients cancelling each other and as ringing near the horizon. Prefer kLeastSquares,
+//    smoothing, or hemispherical harmonics (hsh.hpp) beyond n = 5 or where the horizon is barely sampled.
 //  - kLeastSquares: min sum_j w_j (f(s_j) - sum c_i y_i(s_j))^2, by a column-pivoting QR of sqrt(W) Y (no normal
 //    equations, so cond(A)^2 is avoided); rank-deficient sets (fewer samples than coefficients, coincident
 //    samples) get the minimum-norm solution of a complete orthogonal decomposition.
@@ -44,8 +40,7 @@
 //  - `window`: per-band sigma factors multiplying the coefficients of band l after the fit (folded into P).
 //    Hanning: (1 + cos(pi l / n)) / 2; Lanczos: sinc(pi l / n) (Sloan, "Stupid SH tricks"). Only valid for ZH:
 //    LSOP and LS coefficients on the hemisphere are large and cancel each other (cond(A) above), and damping
-//    some bands breaks the cancellation: measured on a m = 60 lobe with 64 coefficients, Hanning turns an RMS
-//    error of 0.04 into 2.9. ShFitOptions::is_valid rejects that combination.
+//    some bands breaks the cancellation. ShFitOptions::is_valid rejects that combination.
 //  - `smoothing` (lambda >= 0): Tikhonov penalty lambda sum_i (l_i (l_i + 1))^2 c_i^2 on the fitted function's
 //    Laplacian, added to the hemisphere error int_H (f - sum c y)^2. LSOP solves (A + lambda D) c = b; LS solves
 //    (Y^T W Y / s + lambda D) c = Y^T W f / s with s = sum w / (2 pi), so lambda means the same for both
