@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
 
   // Out of core end to end: fit HSH-9 (hsh:3) from the file a tile per thread at a time, as `vdrig fit` does.
   fitting::MapFitOptions fit;
-  fit.model = fitting::ModelDescriptor::parse("hsh:3").value();
+  fit.model = fitting::parse_model("hsh:3").value();
   fit.threads = 2;
   auto map = fitting::fit_parameter_map(reader.value(), fit);
   if (!map) {

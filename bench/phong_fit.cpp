@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/phong_model.hpp"
 
 namespace {
 
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
     }
 
   MapFitOptions options;
-  options.model = ModelDescriptor::parse(model).value();
+  options.model = parse_model(model).value();
   options.threads = threads;
   const auto t0 = std::chrono::steady_clock::now();
   auto map = fit_parameter_map(obs, options);
@@ -82,7 +83,7 @@ int main(int argc, char** argv) {
   for (int t = 0; t < side; ++t)
     for (int s = 0; s < side; ++s) {
       const PhongParams& p = truth[static_cast<size_t>(t) * side + s];
-      const PhongParams f = map->phong(s, t);
+      const PhongParams f = phong_texel(*map, s, t);
       if (f.lobes.empty()) continue;
       const double a = vdrig::rad_to_deg(vdrig::angle_between(f.lobes[0].direction, p.lobes[0].direction));
       angle_err.push_back(a);

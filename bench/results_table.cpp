@@ -24,6 +24,7 @@
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/phong.hpp"
+#include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -394,7 +395,7 @@ Section direction_count() {
           map.set(u, t, static_cast<int>(v), obs.radiance[v], obs.direction[v], fitting::kObsValid);
       }
     fitting::MapFitOptions options;
-    options.model = fitting::ModelDescriptor::parse("phong:1").value();
+    options.model = fitting::parse_model("phong:1").value();
     options.shared_lights = true;
     auto fitted = fitting::fit_parameter_map(map, options);
     if (!fitted) {
@@ -402,7 +403,8 @@ Section direction_count() {
       std::exit(1);
     }
     s.rows.push_back({format("17 directions, shared lights over a 20x20 map%s", noise > 0 ? ", 1 % noise" : ""),
-                      format("Phong-1 %s", phong_errors(fitted->phong(14, 5), truth).str().c_str()), "-"});
+                      format("Phong-1 %s", phong_errors(fitting::phong_texel(*fitted, 14, 5), truth).str().c_str()),
+                      "-"});
   }
   return s;
 }

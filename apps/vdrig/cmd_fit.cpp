@@ -28,7 +28,7 @@ struct FitArgs {
 };
 
 Status run_fit(const FitArgs& a) {
-  auto model = fitting::ModelDescriptor::parse(a.model);
+  auto model = fitting::parse_model(a.model);
   if (!model) return model.error();
   auto res = parse_resolution(a.resolution);
   if (!res) return res.error();
@@ -55,8 +55,10 @@ Status run_fit(const FitArgs& a) {
   options.shared_lights = a.shared_lights;
   options.sh.smoothing = options.hsh.smoothing = a.smoothing;
   options.sh.window = options.hsh.window = window;
-  if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && options.model.kind == "phong")
-    return make_error(ErrorCode::kInvalidArgument, "--smoothing and --window apply to sh-* and hsh models only");
+  // They regularise the basis expansions, i.e. the models fitted by a linear operator.
+  if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && !options.model->linear_in_shared_directions())
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--smoothing and --window do not apply to " + options.model->family() + " models");
   for (int k = 1; k <= a.holdout; ++k) options.held_out.push_back(n_views * k / (a.holdout + 1));
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
@@ -82,7 +84,7 @@ Status run_fit(const FitArgs& a) {
                                                        " views, the session " + std::to_string(n_views));
   std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s, obs->spec().texels_t);
 
-  std::printf("fit %s\n", options.model.to_string().c_str());
+  std::printf("fit %s\n", options.model->name().c_str());
   options.on_progress = [](const fitting::MapFitProgress& p) {
     std::printf("\r  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s   ", p.texels_done, p.texels_total,
                 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s, p.eta_s);
@@ -110,8 +112,8 @@ Status run_fit(const FitArgs& a) {
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
   };
-  std::printf("wrote %s (%s, %dx%d texels); median RMS %.4g", out.c_str(), map->model().to_string().c_str(),
-              map->texels_s(), map->texels_t(), median_of("rms."));
+  std::printf("wrote %s (%s, %dx%d texels); median RMS %.4g", out.c_str(), map->model().name().c_str(), map->texels_s(),
+              map->texels_t(), median_of("rms."));
   if (map->has("holdout.R")) std::printf(", median held-out RMS %.4g", median_of("holdout."));
   std::printf("\n");
   return Status::ok();
@@ -121,8 +123,7 @@ const CommandRegistrar kFit([](CLI::App& root) {
   auto args = std::make_shared<FitArgs>();
   auto* cmd = root.add_subcommand("fit", "Fit a reflectance model to every texel of a session -> parameter map (EXR)");
   cmd->add_option("session", args->session, "session folder (with hdr/ merged)")->required();
-  cmd->add_option("--model", args->model, "phong:K | phong:auto | sh-zh:N | sh-lsop:N | sh-ls:N | hsh:N")
-      ->capture_default_str();
+  cmd->add_option("--model", args->model, fitting::model_registry().syntax())->capture_default_str();
   cmd->add_option("--res", args->resolution, "parameter map resolution, SxT texels")->capture_default_str();
   cmd->add_option("--out", args->out, "output EXR (default SESSION/maps/<model>.exr)");
   cmd->add_option("--holdout", args->holdout, "views held out of the fit; the map gets their RMS (holdout.R/G/B)")

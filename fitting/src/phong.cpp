@@ -1,5 +1,7 @@
 #include "vdrig/fitting/phong.hpp"
 
+#include "bounded_lm.hpp"
+
 #include <ceres/ceres.h>
 
 #include <Eigen/Cholesky>
@@ -148,83 +150,6 @@ class PhongTexelCost {
   const TexelObservations* obs_;
   std::vector<double> weight_;  // per observation and channel (3 each): 1 for absolute, 1/(|o|+floor) for relative
 };
-
-/// Levenberg-Marquardt with box bounds for the small dense problems of one texel: steps of (J^T J + lambda
-/// diag(J^T J)) dx = -J^T r, projected onto the bounds; coordinates held at a bound by the gradient are frozen for
-/// the step. Ceres did the same job but its per-evaluation bookkeeping (validity scans and copies of the 3N x P
-/// Jacobian, forming J^T J from it) took over half of a map fit; here J^T J is accumulated directly.
-/// Termination as Ceres': relative cost decrease < function_tolerance, step < parameter_tolerance (|p| + tol), or the
-/// projected gradient's max norm < gradient_tolerance. Returns true when one of them was met.
-/// Coordinates flagged in `fixed` are constants: their rows and columns are dropped from the normal equations.
-template <class Cost>
-bool minimise_bounded(const Cost& cost_fn, typename Cost::Vec& p, const typename Cost::Vec& lo,
-                      const typename Cost::Vec& hi, const Eigen::Matrix<bool, Cost::kParams, 1>& fixed,
-                      int max_iterations, double* final_cost) {
-  using Vec = typename Cost::Vec;
-  using Mat = typename Cost::Mat;
-  constexpr double kFunctionTolerance = 1e-10, kParameterTolerance = 1e-10, kGradientTolerance = 1e-14;
-  p = p.cwiseMax(lo).cwiseMin(hi);
-  Mat jtj;
-  Vec g;
-  double cost = cost_fn.evaluate(p, &jtj, &g);
-  double lambda = 1e-4, nu = 2.0;
-  bool converged = false;
-  for (int it = 0; it < max_iterations && !converged; ++it) {
-    // Coordinates at a bound whose descent direction points out of the box stay where they are.
-    Eigen::Matrix<bool, Cost::kParams, 1> frozen;
-    double proj_grad = 0.0;
-    for (int j = 0; j < Cost::kParams; ++j) {
-      frozen[j] = fixed[j] || (p[j] <= lo[j] && g[j] > 0.0) || (p[j] >= hi[j] && g[j] < 0.0);
-      if (!frozen[j]) proj_grad = std::max(proj_grad, std::abs(g[j]));
-    }
-    if (proj_grad < kGradientTolerance) {
-      converged = true;
-      break;
-    }
-    bool stepped = false;
-    while (!stepped) {
-      Mat a = jtj;
-      Vec rhs = -g;
-      const double diag_floor = 1e-12 * std::max(1.0, jtj.diagonal().maxCoeff());
-      for (int j = 0; j < Cost::kParams; ++j) {
-        a(j, j) += lambda * std::max(jtj(j, j), diag_floor);
-        if (frozen[j]) {
-          a.row(j).setZero();
-          a.col(j).setZero();
-          a(j, j) = 1.0;
-          rhs[j] = 0.0;
-        }
-      }
-      const Vec p_new = (p + a.ldlt().solve(rhs)).cwiseMax(lo).cwiseMin(hi);
-      const Vec step = p_new - p;
-      if (!step.allFinite()) return false;
-      if (step.norm() <= kParameterTolerance * (p.norm() + kParameterTolerance)) {
-        converged = true;
-        break;
-      }
-      const double predicted = -(g.dot(step) + 0.5 * step.dot(jtj * step));
-      const double new_cost = cost_fn.evaluate(p_new, nullptr, nullptr);
-      if (std::isfinite(new_cost) && new_cost < cost) {
-        const double rho = predicted > 0 ? (cost - new_cost) / predicted : 0.5;
-        converged = (cost - new_cost) <= kFunctionTolerance * cost;
-        p = p_new;
-        cost = cost_fn.evaluate(p, &jtj, &g);
-        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-        nu = 2.0;
-        stepped = true;
-      } else {
-        lambda *= nu;
-        nu *= 2.0;
-        if (lambda > 1e16) {  // no descent left at any step length: a minimum to working precision
-          converged = true;
-          break;
-        }
-      }
-    }
-  }
-  *final_cost = cost;
-  return converged;
-}
 
 double luminance(const Eigen::Vector3f& rgb) { return rgb[0] + rgb[1] + rgb[2]; }
 

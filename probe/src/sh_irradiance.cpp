@@ -1,17 +1,13 @@
 #include "vdrig/probe/sh_irradiance.hpp"
 
+#include "vdrig/core/sh_basis.hpp"
+
 namespace vdrig::probe {
 
 std::array<double, kSh9Count> sh9_basis(const Vec3d& d) {
-  // K_l^m (with sqrt 2 for m != 0) times the Condon-Shortley-phased Legendre polynomials, as in fitting/sh.hpp.
-  const double x = d.x(), y = d.y(), z = d.z();
-  constexpr double k0 = 0.28209479177387814;   // 1 / (2 sqrt(pi))
-  constexpr double k1 = 0.48860251190291992;   // sqrt(3 / (4 pi))
-  constexpr double k2 = 1.0925484305920792;    // sqrt(15 / (4 pi))
-  constexpr double k20 = 0.31539156525252005;  // sqrt(5 / (16 pi))
-  constexpr double k22 = 0.54627421529603959;  // sqrt(15 / (16 pi))
-  return {
-      k0, -k1 * y, k1 * z, -k1 * x, k2 * x * y, -k2 * y * z, k20 * (3 * z * z - 1), -k2 * x * z, k22 * (x * x - y * y)};
+  std::array<double, kSh9Count> y{};
+  sh_basis(3, d, y.data());
+  return y;
 }
 
 double sh9_cosine_factor(int band) {

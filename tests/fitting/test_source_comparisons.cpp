@@ -16,6 +16,7 @@
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/phong.hpp"
+#include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -123,7 +124,7 @@ TEST(SourceComparisons, SeventeenDirectionsPhong1WithSharedLights) {
   const auto dirs = scheme("icosahedron:1");
   ASSERT_EQ(dirs.size(), 17u);
   MapFitOptions options;
-  options.model = ModelDescriptor::parse("phong:1").value();
+  options.model = parse_model("phong:1").value();
   options.shared_lights = true;
   options.threads = 2;
   // patchwork on a 20 x 20 grid: texel (14, 5) is centred on the glossy texel (225, -225) mm.
@@ -135,7 +136,7 @@ TEST(SourceComparisons, SeventeenDirectionsPhong1WithSharedLights) {
     const auto truth = scene.phong_truth(kGlossyTexel);
     ASSERT_TRUE(truth.has_value());
     PhongFit fit;
-    fit.params = map->phong(14, 5);
+    fit.params = phong_texel(*map, 14, 5);
     const Errors e = errors(fit, *truth);
     std::printf("17 dirs, shared lights, glossy m=60: Kd %.4f  Ks %.4f  r %.4f deg  m %.4f\n", e.kd, e.ks, e.r_deg,
                 e.m);
@@ -155,7 +156,7 @@ TEST(SourceComparisons, SeventeenDirectionsPhong1WithSharedLights) {
       const auto truth = scene.phong_truth(p);
       if (!truth) continue;  // outside the bands
       PhongFit fit;
-      fit.params = map->phong(s, 1);
+      fit.params = phong_texel(*map, s, 1);
       const Errors e = errors(fit, *truth);
       // How much of the highlight the 17 samples hold: the largest (v . r)^m over them (1 = a sample on the peak).
       double seen = 0;

@@ -69,7 +69,7 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   ASSERT_TRUE(map->write(map_path));
   auto reread = fitting::ParameterMap::read(map_path);
   ASSERT_TRUE(reread) << reread.error().describe();
-  EXPECT_EQ(reread->model().to_string(), "phong:1");
+  EXPECT_EQ(reread->model().name(), "phong:1");
   EXPECT_FLOAT_EQ(reread->at("kd.R", 5, 7), map->at("kd.R", 5, 7));
 
   auto geometry = session_geometry(session.value());

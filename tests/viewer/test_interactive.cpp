@@ -11,6 +11,7 @@
 
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/viewer/interactive.hpp"
 
 namespace vdrig::viewer {
@@ -25,7 +26,7 @@ constexpr int kWidth = 160, kHeight = 120;
 /// Phong-1 with a diffuse gradient across the surface and a glossy lobe around the mirror of a light at
 /// (azimuth 200, zenith 35 degrees): a highlight that moves with the view.
 fitting::ParameterMap make_map() {
-  fitting::ParameterMap map(fitting::ModelDescriptor::parse("phong:1").value(), kS, kT, kW, kH);
+  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), kS, kT, kW, kH);
   const Vec3d light = direction_from_spherical(deg_to_rad(200), deg_to_rad(35));
   for (int t = 0; t < kT; ++t)
     for (int s = 0; s < kS; ++s) {
@@ -36,7 +37,7 @@ fitting::ParameterMap make_map() {
       lobe.direction = mirror_direction(light, Vec3d::UnitZ());
       lobe.shininess = 12.0;
       p.lobes.push_back(lobe);
-      map.set_phong(s, t, p);
+      fitting::set_phong_texel(map, s, t, p);
     }
   return map;
 }

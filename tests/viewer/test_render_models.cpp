@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
@@ -17,15 +18,15 @@ constexpr int kS = 6, kT = 5;
 constexpr double kW = 600.0, kH = 500.0;
 
 fitting::ParameterMap make_map(const std::string& spec) {
-  const auto model = fitting::ModelDescriptor::parse(spec).value();
+  const auto model = fitting::parse_model(spec).value();
   fitting::ParameterMap map(model, kS, kT, kW, kH);
-  const int k = model.coefficients_per_channel();
+  const int k = dynamic_cast<const fitting::HarmonicModel&>(*model).coefficients_per_channel();
   for (int t = 0; t < kT; ++t)
     for (int s = 0; s < kS; ++s) {
       Eigen::MatrixXd c(k, 3);
       for (int i = 0; i < k; ++i)
         for (int ch = 0; ch < 3; ++ch) c(i, ch) = i == 0 ? 4.0 + ch : 0.3 * std::sin(1.3 * i + 0.7 * ch + s - 2.1 * t);
-      map.set_sh(s, t, c);
+      fitting::set_harmonic_coefficients(map, s, t, c);
     }
   return map;
 }

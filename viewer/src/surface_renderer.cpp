@@ -6,12 +6,10 @@
 #include <GLFW/glfw3.h>
 
 #include <cmath>
-#include <cstdio>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/core/log.hpp"
-#include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::viewer {
 namespace {
@@ -24,7 +22,7 @@ void main() {
 }
 )";
 
-// Model evaluation is generated per model kind (see model_glsl()).
+// The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head and tail (model_glsl()).
 const char* kFragmentHead = R"(#version 330 core
 out vec4 out_colour;
 uniform sampler2DArray u_params;   // parameter map channels, 4 per layer
@@ -103,95 +101,10 @@ void main() {
 }
 )";
 
-/// A double as a GLSL float literal (enough digits for float precision).
-std::string glsl_float(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9e", v);
-  return buf;
-}
-
-/// GLSL of `vec3 model(ivec2 t, vec3 v)` for an SH or HSH map: straight-line code for the n bands, the same
-/// computation as fitting::sh_basis (sh.cpp) with its constants baked in. Per order m, Q_l^m = K_l^m P_l^m /
-/// sin^m(zenith) by the normalised recurrence Q_m^m = diag_m (Condon-Shortley sign included), Q_l^m = a_lm (z
-/// Q_{l-1}^m - b_lm Q_{l-2}^m), times sqrt2 (Re, Im)((x + i y)^m) for m != 0. HSH (hsh.cpp) evaluate the same at
-/// d' = (k x, k y, 2 z - 1), k = 2 sqrt(z / (1 + z)), z clamped to [0, 1], times sqrt2.
-Result<std::string> sh_model_glsl(const fitting::ParameterMap& map) {
-  const auto& m = map.model();
-  const auto& img = map.image();
-  const int n = m.bands;
-  if (n < 1 || n > fitting::kMaxShBands) return make_error(ErrorCode::kInvalidArgument, "SH band count out of range");
-  const bool hsh = m.kind == "hsh";
-  const std::string prefix = hsh ? "hsh." : "sh.";
-  std::string err;
-  auto coeff = [&](int l, int mm) {
-    std::string v = "vec3(";
-    for (int c = 0; c < 3; ++c) {
-      char idx[16];
-      std::snprintf(idx, sizeof idx, "%02d", fitting::sh_index(l, mm));
-      const std::string name = prefix + "RGB"[c] + "." + idx;
-      const int i = img.find(name);
-      if (i < 0) err = "parameter map has no channel " + name;
-      v += "channel(" + std::to_string(i) + ", t)" + (c < 2 ? ", " : ")");
-    }
-    return v;
-  };
-  // The recurrence constants of sh.cpp, in double precision.
-  std::vector<double> diag(n);
-  diag[0] = 1.0 / std::sqrt(4.0 * kPi);
-  for (int k = 1; k < n; ++k) diag[k] = -std::sqrt((2.0 * k + 1.0) / (2.0 * k)) * diag[k - 1];
-  const std::string sqrt2 = glsl_float(std::sqrt(2.0));
-  std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
-  if (hsh) {
-    s += "  float zc = clamp(v.z, 0.0, 1.0);\n  float k = 2.0 * sqrt(zc / (1.0 + zc));\n";
-    s += "  float x = k * v.x, y = k * v.y, z = 2.0 * zc - 1.0;\n";
-  } else {
-    s += "  float x = v.x, y = v.y, z = v.z;\n";
-  }
-  s += "  vec3 I = vec3(0.0);\n  float re = 1.0, im = 0.0, re_next;\n";
-  for (int mm = 0; mm < n; ++mm) {
-    s += "  {\n    float q2 = 0.0, q1 = " + glsl_float(diag[mm]) + ", q = q1;\n";
-    for (int l = mm; l < n; ++l) {
-      if (l > mm) {
-        const double l2 = double(l) * l, m2 = double(mm) * mm, lm1 = l - 1.0;
-        const double a = std::sqrt((4.0 * l2 - 1.0) / (l2 - m2));
-        const double b = std::sqrt((lm1 * lm1 - m2) / (4.0 * lm1 * lm1 - 1.0));
-        s += "    q = " + glsl_float(a) + " * (z * q1 - " + glsl_float(b) + " * q2);\n    q2 = q1;\n    q1 = q;\n";
-      }
-      if (mm == 0)
-        s += "    I += q * " + coeff(l, 0) + ";\n";
-      else
-        s += "    I += " + sqrt2 + " * q * (re * " + coeff(l, mm) + " + im * " + coeff(l, -mm) + ");\n";
-    }
-    s += "  }\n  re_next = re * x - im * y;\n  im = re * y + im * x;\n  re = re_next;\n";
-  }
-  s += hsh ? "  return " + sqrt2 + " * I;\n}\n" : "  return I;\n}\n";
-  if (!err.empty()) return make_error(ErrorCode::kCorrupt, err);
-  return s;
-}
-
-/// GLSL of `vec3 model(ivec2 texel, vec3 v)` for the map's model, with channel indices baked in.
-Result<std::string> model_glsl(const fitting::ParameterMap& map) {
-  const auto& m = map.model();
-  const auto& img = map.image();
-  auto ch = [&](const std::string& name) { return std::to_string(img.find(name)); };
-  if (m.kind == "phong") {
-    std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
-    s += "  vec3 I = vec3(channel(" + ch("kd.R") + ", t), channel(" + ch("kd.G") + ", t), channel(" + ch("kd.B") +
-         ", t));\n";
-    for (int k = 0; k < m.lobes; ++k) {
-      const std::string K = std::to_string(k);
-      const std::string mname = m.shared_shininess ? "m" : "m" + K;
-      s += "  {\n    vec3 r = vec3(channel(" + ch("r" + K + ".x") + ", t), channel(" + ch("r" + K + ".y") +
-           ", t), channel(" + ch("r" + K + ".z") + ", t));\n";
-      s += "    vec3 ks = vec3(channel(" + ch("ks" + K + ".R") + ", t), channel(" + ch("ks" + K + ".G") +
-           ", t), channel(" + ch("ks" + K + ".B") + ", t));\n";
-      s += "    float c = dot(v, r);\n    if (c > 0.0) I += ks * exp(channel(" + ch(mname) + ", t) * log(c));\n  }\n";
-    }
-    s += "  return I;\n}\n";
-    return s;
-  }
-  if (m.kind == "sh-zh" || m.kind == "sh-lsop" || m.kind == "sh-ls" || m.kind == "hsh") return sh_model_glsl(map);
-  return make_error(ErrorCode::kUnsupported, "the viewer cannot shade model " + m.kind);
+/// GLSL of `vec3 model(ivec2 t, vec3 v)` for the map's model (ReflectanceModel::glsl), reading parameter i from
+/// the map channel that holds it.
+std::string model_glsl(const fitting::ParameterMap& map) {
+  return map.model().glsl([&map](int i) { return "channel(" + std::to_string(map.parameter_channel(i)) + ", t)"; });
 }
 
 GLuint compile(GLenum type, const std::string& src, std::string* log) {
@@ -249,12 +162,10 @@ std::string GlContext::renderer() const {
 }
 
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
-  auto model = model_glsl(map);
-  if (!model) return model.error();
+  const std::string model = model_glsl(map);
   std::string log;
   const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, &log);
-  const GLuint fs =
-      vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model.value() + kFragmentTail, &log) : 0;
+  const GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model + kFragmentTail, &log) : 0;
   if (!vs || !fs) return make_error(ErrorCode::kInternal, "shader compilation failed: " + log);
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
   r->program_ = glCreateProgram();
@@ -271,7 +182,6 @@ Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::
     return make_error(ErrorCode::kInternal, std::string("shader link failed: ") + buf);
   }
   glGenVertexArrays(1, &r->vao_);
-  r->model_ = map.model();
   r->texels_s_ = map.texels_s();
   r->texels_t_ = map.texels_t();
   r->width_mm_ = map.width_mm();

@@ -1,9 +1,6 @@
-// Fitting a whole observation map, texel by texel, in parallel, into a ParameterMap.
-//
-// Models (ModelDescriptor): phong:K (fit_phong), phong:auto (fit_phong_auto: 1..4 lobes by BIC, a "lobes" channel,
-// the map stores the largest count chosen), sh-zh:N / sh-lsop:N / sh-ls:N (ShTexelFitter with the matching
-// ShFitMethod) and hsh:N (fit_hsh, least squares). Each texel is fitted on its own directions: with the camera at a
-// finite distance no two texels see a view from exactly the same direction, so there are no shared operators.
+// Fitting a whole observation map, texel by texel, in parallel, into a ParameterMap of one reflectance model
+// (model.hpp). The tiling, threading, held-out views and progress are here; what is fitted per texel is the model's
+// (ReflectanceModel::fit_map).
 #pragma once
 
 #include <functional>
@@ -11,9 +8,11 @@
 
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/lights.hpp"
+#include "vdrig/fitting/model.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/phong.hpp"
 #include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::fitting {
@@ -26,22 +25,21 @@ struct MapFitProgress {
 };
 
 struct MapFitOptions {
-  ModelDescriptor model;
-  PhongFitOptions phong;  // lobes/shininess sharing taken from `model`
+  ModelPtr model = parse_model("phong:1").value();
+  // Options of the built-in models (each model reads its own and ignores the others):
+  PhongFitOptions phong;  // Phong: lobes/shininess sharing taken from `model`
   ShFitOptions sh;        // SH: bands and method taken from `model`; window/smoothing used as given
   HshFitOptions hsh;      // HSH: bands taken from `model`; method/window/smoothing used as given
   /// Observation-map view indices left out of the fit (any order); their observations give holdout.R/G/B, the RMS
   /// residual of the fitted model on them (0 where a texel has no held-out observation).
   std::vector<int> held_out;
-  /// Phong only: the lights are fixed to the platform and the surface is planar, so every texel's mirror directions
-  /// come from the same few lights. After the per-texel fits, estimate the lights from all texels' lobes
+  /// Phong only (other models reject it): after the per-texel fits, estimate the lights from all texels' lobes
   /// (estimate_point_lights, at most K lights for phong:K, 4 for phong:auto) and refit each texel with its lobes
   /// held at the lights' mirror directions (fit_phong with fixed_directions), keeping whichever of the two fits has
-  /// the lower BIC. It makes Ks and m identifiable from sparse view sets (17 directions: the free fit of an m = 60
-  /// texel is exact with Ks 40 % off; the shared-lights fit is within 1 %), and a texel whose normal is not the
-  /// surface's (bumped patches) keeps its own fit. The map gets a "shared_lights" channel (1 where the refit won) and
-  /// a header attribute "vdrig.shared_lights" listing the lights found, "; "-separated, each "point X Y Z" (surface
-  /// frame, mm) or "direction X Y Z" (unit, toward a light at infinity); empty when none was found.
+  /// the lower BIC; a texel whose normal is not the surface's keeps its own fit (docs/models.md has why and how
+  /// much it helps). The map gets a "shared_lights" channel (1 where the refit won) and a header attribute
+  /// "vdrig.shared_lights" listing the lights found, "; "-separated, each "point X Y Z" (surface frame, mm) or
+  /// "direction X Y Z" (unit, toward a light at infinity); empty when none was found.
   bool shared_lights = false;
   LightEstimationOptions lights;
   int threads = 0;           // 0 = hardware concurrency
@@ -49,8 +47,10 @@ struct MapFitOptions {
   std::function<void(const MapFitProgress&)> on_progress;  // called from worker threads, serialised
 };
 
-/// Fits every texel; the map's quality channels are filled (rms, mpe, n over the fitted observations; holdout.*
-/// when views are held out). Invalid options are kInvalidArgument. Texels are fitted tile by tile (32 x 32).
+/// Fits every texel with options.model; the map's quality channels are filled (rms, mpe, n over the fitted
+/// observations; holdout.* when views are held out). Invalid options are kInvalidArgument with the reason. Texels
+/// are fitted tile by tile (32 x 32). With the camera at a finite distance no two texels see a view from exactly
+/// the same direction, so each texel is fitted on its own directions (no shared operators).
 Result<ParameterMap> fit_parameter_map(const ObservationMap& obs, const MapFitOptions& options);
 
 /// The same from an observation-map file, one tile per worker thread in memory at a time (the file's tiles), so a

@@ -17,8 +17,7 @@
 // the fit; the Voronoi projection c_i = sum_j f(s_j) H_i(s_j) dA_j is also offered (it is what LSOP reduces to
 // for an orthonormal basis). Fitting many texels at once works as in sh.hpp (LinearFitOperator::apply_batch).
 // Because the basis is orthonormal on the hemisphere, the fitted coefficients do not cancel each other and the
-// post-fit ringing windows of sh.hpp are valid here (measured on a m = 60 lobe at 64 coefficients: Hanning takes
-// the most negative value from -0.048 to -0.004 at the cost of RMS 0.032 -> 0.057). `smoothing` works as in
+// post-fit ringing windows of sh.hpp are valid here (docs/models.md has what they cost). `smoothing` works as in
 // sh.hpp: (Y^T W Y / s + lambda D) c = Y^T W f / s for least squares, c_i = b_i / (1 + lambda D_i) for projection.
 #pragma once
 

@@ -1,21 +1,19 @@
 // Modified Phong with K lobes, per colour channel c:   I_c(v) = Kd_c + sum_k Ks_kc max(0, v . r_k)^m_k
-// (design notes). With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared by all
-// lobes (as the source method) or one per lobe.
+// With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared by all lobes (as the
+// source method) or one per lobe. phong_model.hpp makes it a ReflectanceModel of parameter maps.
 //
 // Fitting (fit_phong): non-linear least squares, all observations of a texel at once (3 residuals each), analytic
-// derivatives, a bounded Levenberg-Marquardt that accumulates J^T J directly (phong.cpp; Ceres did the same with
-// ~3x the time in per-evaluation bookkeeping). Parameters: Kd, Ks >= 0 (bounds), r_k as (azimuth, zenith) with
-// zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by construction), log(m) in
-// [0, log(max_shininess)] (m >= 1; log keeps the steps in m proportional). Initialisation: r_0 at the brightest
-// observation, m by a coarse search (linear least squares for Kd, Ks at each candidate m); for K > 1 lobe k starts at
-// the peak of the previous fit's residual.
+// derivatives, the bounded Levenberg-Marquardt of bounded_lm.hpp (private to fitting/). Parameters: Kd, Ks >= 0
+// (bounds), r_k as (azimuth, zenith) with zenith in [0, pi/2] (so r stays on the upper hemisphere and unit by
+// construction), log(m) in [0, log(max_shininess)] (m >= 1; log keeps the steps in m proportional). Initialisation: r_0
+// at the brightest observation, m by a coarse search (linear least squares for Kd, Ks at each candidate m); for K > 1
+// lobe k starts at the peak of the previous fit's residual.
 //
 // Fixed lobe directions (PhongFitOptions::fixed_directions): when the lobe directions are known from elsewhere (the
 // rig's lights are fixed to the platform and the surface is planar, so every texel's mirror directions follow from a
 // few point lights estimated over the whole map: lights.hpp), r_k is held at the given value and only Kd, Ks, m are
-// fitted. From sparse view sets (17 directions ~30 deg apart) a glossy lobe is seen by 2-3 samples and a free fit
-// trades r against Ks and m with no loss in residual; with r fixed, Ks and m become identifiable. Speed: 256 x 256
-// texels x 289 views of Phong-1 take ~24 s of CPU (bench/phong_fit.cpp), i.e. ~12 s on 2 free cores.
+// fitted: from sparse view sets a free fit can trade r against Ks and m with no loss in residual, and with r fixed
+// Ks and m become identifiable (docs/models.md).
 #pragma once
 
 #include <span>
@@ -23,6 +21,7 @@
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
+#include "vdrig/fitting/fit_quality.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 
 namespace vdrig::fitting {
@@ -48,8 +47,8 @@ enum class ResidualMode {
 
 /// Which least-squares solver minimises the residuals (both see the same parameters, bounds and residuals).
 enum class PhongSolver {
-  kDirect,  // analytic Jacobian, bounded Levenberg-Marquardt on the normal equations of one texel (the default:
-            // ~4x less CPU per texel than Ceres here, where Ceres' per-problem setup dominates; bench_phong_fit)
+  kDirect,  // analytic Jacobian, bounded Levenberg-Marquardt on the normal equations of one texel (the default;
+            // docs/models.md compares the two)
   kCeres,   // Ceres, automatic derivatives, one residual block per texel: the reference implementation
 };
 
@@ -68,13 +67,6 @@ struct PhongFitOptions {
   std::vector<Vec3d> fixed_directions = {};  // (the initialiser keeps designated initialisers warning-free)
 
   bool is_valid(std::string* why) const;
-};
-
-/// Fit quality per colour channel.
-struct FitQuality {
-  Vec3d rms = Vec3d::Zero();           // root mean square residual
-  Vec3d mean_percent = Vec3d::Zero();  // mean of |residual| / observed * 100 over samples with observed > 0
-  int samples = 0;
 };
 
 struct PhongFit {
@@ -102,31 +94,5 @@ double phong_bic(double rss, int residuals, int parameters, double rms_observed)
 /// returned params hold the chosen number of lobes (at least 1 when the texel has enough observations).
 /// `options.fixed_directions` must be empty (VDRIG_CHECK): fit fixed-direction models with fit_phong.
 PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes = 4);
-
-/// Quality of any RGB model on observations.
-template <typename Model>
-FitQuality measure_quality(const Model& model, const TexelObservations& obs) {
-  FitQuality q;
-  Vec3d sq = Vec3d::Zero(), pct = Vec3d::Zero();
-  Eigen::Vector3i pct_n = Eigen::Vector3i::Zero();
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const Vec3d pred = model.evaluate(obs.direction[i].cast<double>());
-    for (int c = 0; c < 3; ++c) {
-      const double o = obs.radiance[i][c];
-      const double r = pred[c] - o;
-      sq[c] += r * r;
-      if (o > 0) {
-        pct[c] += std::abs(r) / o * 100.0;
-        ++pct_n[c];
-      }
-    }
-  }
-  q.samples = static_cast<int>(obs.size());
-  for (int c = 0; c < 3; ++c) {
-    q.rms[c] = obs.size() ? std::sqrt(sq[c] / obs.size()) : 0.0;
-    q.mean_percent[c] = pct_n[c] ? pct[c] / pct_n[c] : 0.0;
-  }
-  return q;
-}
 
 }  // namespace vdrig::fitting

@@ -1,17 +1,7 @@
 // Real spherical harmonics (SH) for per-texel view-dependent radiance, and the linear fitters of the source
 // (zero-hemisphere projection, least-squares optimal projection) plus plain weighted least squares.
 //
-// Conventions (../shared/design-notes.md, "Models"):
-//  - y_i with i = l (l + 1) + m, l in [0, bands), m in [-l, l]; `bands` = n gives n^2 coefficients, n <= 10.
-//  - K_l^m = sqrt((2l+1)(l-|m|)! / (4 pi (l+|m|)!));
-//    m > 0: sqrt2 K cos(m azimuth) P_l^m(cos zenith); m < 0: sqrt2 K sin(-m azimuth) P_l^-m(cos zenith);
-//    m = 0: K P_l^0(cos zenith).
-//  - P_l^m INCLUDES the Condon-Shortley phase (-1)^m (P_m^m = (-1)^m (2m-1)!! (1-x^2)^(m/2), as in the source's
-//    rule 2). The phase only flips the sign of whole basis functions, so the basis is orthonormal on the sphere
-//    either way; it matters only when exchanging coefficients with code using the other convention.
-//  - Evaluation is from the unit direction (x, y, z) without trigonometry: K P_l^m(z) = Q_l^m(z) sin^m(zenith)
-//    and sin^m(zenith) (cos, sin)(m azimuth) = (Re, Im)((x + i y)^m); Q is produced by the normalised (fully
-//    scaled) three-term recurrence, which never forms the large factorials and is stable for all n <= 10.
+// Basis: the real SH of core/sh_basis.hpp (index i = l (l + 1) + m, K_l^m normalisation, Condon-Shortley phase).
 //
 // Fitting. All three methods are linear in the sample values: for a fixed set of N directions (and weights) the
 // K = n^2 coefficients of a channel are c = P f with a K x N operator P. `LinearFitOperator` holds P and applies it
@@ -32,15 +22,11 @@
 //  - kLsop (least-squares optimal projection, Sloan et al. 2003): minimises int_H (f - sum c_i y_i)^2, giving
 //    A c = b with A_ik = int_H y_i y_k (exact quadrature, cached per band count) and b the ZH coefficients.
 //    A is symmetric positive definite for every n (the y_i are polynomials, linearly independent on any open
-//    set), but ill-conditioned: even-in-z and odd-in-z combinations nearly coincide on H. Measured cond2(A):
-//    13.9 (n=2), 254 (3), 5.9e3 (4), 1.5e5 (5), 4.2e6 (6), 1.2e8 (7), 3.5e9 (8), 1.0e11 (9), 3.2e12 (10)
-//    (tests/fitting/test_sh.cpp re-measures these). The solve itself is a Cholesky (LLT) factorisation of the
-//    exactly computed A and keeps >= 4 significant digits even at n = 10, but cond(A) also amplifies the
-//    quadrature error of b (the Voronoi areas are exact, the rule sum f y dA is not), which shows as large
-//    coefficients cancelling each other and as ringing near the horizon (the "disc-like abnormalities" of the
-//    source). With 2000 well-spread samples LSOP reproduces a band-limited function to ~1e-3 relative RMS (n <= 5);
-//    on a 17 x 17 pan/tilt grid to +-80 deg, which leaves the horizon almost unsampled, LSOP at 36 coefficients
-//    can be worse than ZH. Beyond n = 5 prefer kLeastSquares, smoothing, or hemispherical harmonics (hsh.hpp).
+//    set), but ill-conditioned (even-in-z and odd-in-z combinations nearly coincide on H; cond(A) grows by ~30x
+//    per band, docs/models.md). The solve is a Cholesky (LLT) factorisation of the exactly computed A; cond(A)
+//    also amplifies the quadrature error of b (the Voronoi areas are exact, the rule sum f y dA is not), which
+//    shows as large coefficients cancelling each other and as ringing near the horizon. Prefer kLeastSquares,
+//    smoothing, or hemispherical harmonics (hsh.hpp) beyond n = 5 or where the horizon is barely sampled.
 //  - kLeastSquares: min sum_j w_j (f(s_j) - sum c_i y_i(s_j))^2, by a column-pivoting QR of sqrt(W) Y (no normal
 //    equations, so cond(A)^2 is avoided); rank-deficient sets (fewer samples than coefficients, coincident
 //    samples) get the minimum-norm solution of a complete orthogonal decomposition.
@@ -54,8 +40,7 @@
 //  - `window`: per-band sigma factors multiplying the coefficients of band l after the fit (folded into P).
 //    Hanning: (1 + cos(pi l / n)) / 2; Lanczos: sinc(pi l / n) (Sloan, "Stupid SH tricks"). Only valid for ZH:
 //    LSOP and LS coefficients on the hemisphere are large and cancel each other (cond(A) above), and damping
-//    some bands breaks the cancellation: measured on a m = 60 lobe with 64 coefficients, Hanning turns an RMS
-//    error of 0.04 into 2.9. ShFitOptions::is_valid rejects that combination.
+//    some bands breaks the cancellation. ShFitOptions::is_valid rejects that combination.
 //  - `smoothing` (lambda >= 0): Tikhonov penalty lambda sum_i (l_i (l_i + 1))^2 c_i^2 on the fitted function's
 //    Laplacian, added to the hemisphere error int_H (f - sum c y)^2. LSOP solves (A + lambda D) c = b; LS solves
 //    (Y^T W Y / s + lambda D) c = Y^T W f / s with s = sum w / (2 pi), so lambda means the same for both
@@ -67,19 +52,17 @@
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
+#include "vdrig/core/sh_basis.hpp"
 
 namespace vdrig::fitting {
 
-inline constexpr int kMaxShBands = 10;
+// The basis lives in core (probe/ uses it too); these names keep fitting's callers unqualified.
+using vdrig::kMaxShBands;
+using vdrig::sh_basis;
+using vdrig::sh_coeff_count;
+using vdrig::sh_index;
 
-/// Number of coefficients of an n-band expansion.
-constexpr int sh_coeff_count(int bands) { return bands * bands; }
-/// Flat index of (l, m).
-constexpr int sh_index(int l, int m) { return l * (l + 1) + m; }
-
-/// All n^2 real SH at a unit direction `dir` into out[0 .. n^2). Precondition: 1 <= bands <= kMaxShBands,
-/// |dir| = 1 (not checked; the result scales with |dir|^l otherwise).
-void sh_basis(int bands, const Vec3d& dir, double* out);
+/// All n^2 real SH at a unit direction (core/sh_basis.hpp) as a vector.
 Eigen::VectorXd sh_basis(int bands, const Vec3d& dir);
 
 /// N x n^2 basis matrix: row j holds the basis at directions[j] (normalised here).

@@ -19,9 +19,9 @@
 // convex spherical polygon obtained by Sutherland-Hodgman clipping of the hemisphere (edges kept shorter than
 // 90 degrees so every arc is unambiguous); neighbours are visited in order of increasing angle and clipping stops
 // once no farther sample can cut the cell (a sample at angle a from p cannot cut a cell whose farthest vertex is
-// closer than a/2). A set of N directions costs O(N^2) dot products plus O(N k) clips, k the neighbour count
-// (~1 ms for N = 289). Areas come from Gauss-Bonnet (2 pi minus the sum of turning angles), which needs no
-// interior point and also holds for the whole hemisphere.
+// closer than a/2). A set of N directions costs O(N^2) dot products plus O(N k) clips, k the neighbour count. Areas
+// come from Gauss-Bonnet (2 pi minus the sum of turning angles), which needs no interior point and also holds for the
+// whole hemisphere.
 #pragma once
 
 #include <vector>

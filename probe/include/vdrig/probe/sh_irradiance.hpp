@@ -7,11 +7,8 @@
 // maps the error is what the dropped bands 3.. carry through the cosine kernel (A_3 = 0, A_4 = -pi / 24); docs/probe.md
 // gives it for the real probes.
 //
-// Basis: the design notes' real SH, index i = l (l + 1) + m, K_l^m normalisation and the Condon-Shortley phase,
-// identical to fitting::sh_basis (test_sh_irradiance checks it), written out for bands 0..2 so that probe does not
-// link the fitting module (and its Ceres/zstd dependencies):
-//   y0 = 0.282095; y1 = -0.488603 y; y2 = 0.488603 z; y3 = -0.488603 x; y4 = 1.092548 x y; y5 = -1.092548 y z;
-//   y6 = 0.315392 (3 z^2 - 1); y7 = -1.092548 x z; y8 = 0.546274 (x^2 - y^2).
+// Basis: bands 0..2 of the real SH of core/sh_basis.hpp (index i = l (l + 1) + m, K_l^m normalisation,
+// Condon-Shortley phase), the same basis fitting/ uses.
 #pragma once
 
 #include <array>

@@ -1,6 +1,6 @@
 // OpenGL rendering of a ParameterMap: the surface seen from any camera (intrinsics with distortion, pose), with the
-// view-dependent model evaluated per fragment. The same shader serves the interactive viewer and the headless
-// render that is compared against the photographs.
+// view-dependent model evaluated per fragment by the GLSL the map's model provides (ReflectanceModel::glsl). The
+// same shader serves the interactive viewer and the headless render that is compared against the photographs.
 //
 // How a pixel is shaded: the fragment shader casts the pixel's ray exactly as the simulator does (OpenCV pixel
 // centre, distortion removed by fixed-point iteration, samples_per_axis^2 stratified sub-samples), intersects the
@@ -42,7 +42,8 @@ struct RenderSettings {
 
 class SurfaceRenderer {
  public:
-  /// Compiles the shader for the map's model and uploads its parameters. The context must be current.
+  /// Compiles the shader for the map's model and uploads its channels. The context must be current. kInternal when
+  /// the driver rejects the shader or the upload.
   static Result<std::unique_ptr<SurfaceRenderer>> create(const fitting::ParameterMap& map);
   ~SurfaceRenderer();
 
@@ -57,7 +58,6 @@ class SurfaceRenderer {
   unsigned program_ = 0, vao_ = 0, params_tex_ = 0, fbo_ = 0, colour_tex_ = 0;
   int fbo_w_ = 0, fbo_h_ = 0;
   int layers_ = 0;
-  fitting::ModelDescriptor model_;
   int texels_s_ = 0, texels_t_ = 0;
   double width_mm_ = 0, height_mm_ = 0;
 };

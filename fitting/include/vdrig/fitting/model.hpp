@@ -1,0 +1,144 @@
+// Reflectance models: the one interface every model of a parameter map implements, and the registry that turns a
+// model name ("phong:2", "sh-ls:6", ...) into a configured model. docs/models.md describes how to add a model.
+//
+// A model instance is immutable and fully configured by its name (lobe count, band count, fitting method); it is
+// shared between maps, fits and renderers as a ModelPtr (always made with std::make_shared: the model hands out
+// shared_from_this()). A texel's parameters are `parameter_count()` doubles in
+// the order of `channels()`; the parameter map stores them as float channels of those names, so the names are the
+// file format and must not change for an existing model.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/core/result.hpp"
+#include "vdrig/fitting/obsmap.hpp"
+
+namespace vdrig::fitting {
+
+class ParameterMap;
+class LinearFitOperator;
+struct MapFitOptions;
+struct MapFitContext;
+
+class ReflectanceModel;
+using ModelPtr = std::shared_ptr<const ReflectanceModel>;
+
+class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
+ public:
+  virtual ~ReflectanceModel() = default;
+
+  /// The registry name: the part of the model name before the first ':' ("phong", "sh-ls", "hsh"). Stored in a
+  /// map's header as vdrig.model.
+  virtual std::string family() const = 0;
+  /// The full model name; ModelRegistry::parse(name()) gives an equal model. Stored as vdrig.model_spec.
+  virtual std::string name() const = 0;
+
+  /// Names of the parameter channels of one texel, in parameter order; unique, and none of the quality channels
+  /// ParameterMap adds (rms.*, mpe.*, n, holdout.*). Empty while the model is not storable (see storable()).
+  virtual std::vector<std::string> channels() const = 0;
+  int parameter_count() const { return static_cast<int>(channels().size()); }
+  /// False for a model whose name leaves its channel layout open until a fit or a file decides it (phong:auto
+  /// before the lobe count is known): such a model can be fitted but no map can hold it.
+  virtual bool storable() const { return true; }
+
+  /// Header attributes a map of this model carries besides vdrig.model and vdrig.model_spec.
+  virtual void write_attributes(std::map<std::string, double>& number_attributes) const;
+  /// The model as stored in a map with these header attributes (phong:auto reads its lobe count); kCorrupt when
+  /// they are missing or inconsistent. The default: this model, unchanged.
+  virtual Result<ModelPtr> with_attributes(const std::map<std::string, double>& number_attributes) const;
+
+  /// RGB radiance toward unit direction v (surface frame) of a texel with these parameters
+  /// (parameters.size() == parameter_count()).
+  virtual Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const = 0;
+
+  /// GLSL source of `vec3 model(ivec2 t, vec3 v)`: the same radiance as evaluate() for texel t toward unit v, where
+  /// `parameter(i)` is a GLSL float expression reading parameter i of texel t. The viewer compiles it into its
+  /// fragment shader.
+  virtual std::string glsl(const std::function<std::string(int parameter)>& parameter) const = 0;
+
+  /// True when the fit is a fixed linear operator of the observed values for a given set of directions, so texels
+  /// that share their directions share one operator (fit_operator) and are fitted as one matrix product.
+  virtual bool linear_in_shared_directions() const { return false; }
+  /// That operator (parameter_count() / 3 rows per colour channel, one column per direction) for the fit options;
+  /// kUnsupported for models that are not linear_in_shared_directions(), kInvalidArgument for invalid options.
+  virtual Result<LinearFitOperator> fit_operator(const std::vector<Vec3d>& directions,
+                                                 const MapFitOptions& options) const;
+
+  /// Fits every texel of the context's observation map into a parameter map of this model (or of the model the
+  /// fit resolves it to, e.g. phong:auto with its lobe count). Checks the options that concern this model
+  /// (kInvalidArgument with the reason); fills the quality channels (ParameterMap::set_quality, set_holdout_rms).
+  /// Models whose texels are fitted independently implement it with fit_map_per_texel.
+  virtual Result<ParameterMap> fit_map(const MapFitContext& context) const = 0;
+};
+
+/// The texel fitter of a model whose texels are fitted independently: one per worker thread (it may keep work
+/// space between texels).
+class TexelFitter {
+ public:
+  virtual ~TexelFitter() = default;
+  /// The parameters (parameter_count() of them) fitted to obs (at least MapFitOptions::min_observations of them).
+  virtual std::vector<double> fit(const TexelObservations& obs) = 0;
+};
+
+/// A texel's observations as handed to a model's map fit: those to fit and the held-out ones.
+using TexelVisitor =
+    std::function<void(int worker, int s, int t, const TexelObservations& fit, const TexelObservations& held)>;
+
+/// What a model's fit_map works on (made by fit_parameter_map, fit_map.hpp).
+struct MapFitContext {
+  const MapFitOptions& options;
+  ObservationMapSpec spec;
+  int workers = 1;
+  /// Visits every texel once, in parallel on `workers` threads (worker = 0 .. workers - 1, for per-thread state;
+  /// distinct texels run concurrently, one texel never twice at once), tile by tile. `pass` (0, 1, ...) places the
+  /// progress of this sweep in MapFitOptions::on_progress given `passes` sweeps in all. Returns the first tile read
+  /// error, after which no more texels are visited.
+  std::function<Status(int pass, int passes, const TexelVisitor& visit)> for_each_texel;
+};
+
+/// fit_map for a model fitted texel by texel in one sweep: make_fitter() is called once per worker; texels with
+/// fewer than min_observations observations get zero parameters and n = their count. Rejects options that need a
+/// model's own second pass (shared_lights).
+Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContext& context,
+                                       const std::function<std::unique_ptr<TexelFitter>()>& make_fitter);
+
+/// Model names to configured models. Each entry parses the settings after "<family>:" of its family.
+class ModelRegistry {
+ public:
+  struct Entry {
+    std::string family;  // "phong"
+    std::string syntax;  // how the name is written, for help texts and errors: "phong:K|phong:auto"
+    /// Parses the text after "<family>:" ("" when the name has no ':'); kInvalidArgument with the reason.
+    std::function<Result<ModelPtr>(const std::string& settings)> parse;
+  };
+
+  /// Adds a family; a family registered twice is a broken invariant (VDRIG_CHECK).
+  void add(Entry entry);
+  /// The model of a full name; kInvalidArgument naming the model, the reason and the accepted syntax when the
+  /// family is unknown or its settings are invalid.
+  Result<ModelPtr> parse(const std::string& name) const;
+  /// Registered families, in registration order.
+  std::vector<std::string> families() const;
+  /// "phong:K | phong:auto | ... | hsh:N": every family's syntax, for help texts.
+  std::string syntax(const std::string& separator = " | ") const;
+
+ private:
+  std::vector<Entry> entries_;
+};
+
+/// Adds the models vdrig ships (phong, sh-zh, sh-lsop, sh-ls, hsh) to `registry`.
+void register_builtin_models(ModelRegistry& registry);
+
+/// The process-wide registry holding the built-in models (built on first use; thread-safe).
+const ModelRegistry& model_registry();
+
+/// model_registry().parse(name).
+Result<ModelPtr> parse_model(const std::string& name);
+
+}  // namespace vdrig::fitting

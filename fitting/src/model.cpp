@@ -1,0 +1,109 @@
+#include "vdrig/fitting/model.hpp"
+
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/harmonic_model.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/phong_model.hpp"
+
+namespace vdrig::fitting {
+
+void register_builtin_models(ModelRegistry& registry) {
+  register_phong_model(registry);
+  register_harmonic_models(registry);
+}
+
+void ReflectanceModel::write_attributes(std::map<std::string, double>&) const {}
+
+Result<ModelPtr> ReflectanceModel::with_attributes(const std::map<std::string, double>&) const {
+  return shared_from_this();
+}
+
+Result<LinearFitOperator> ReflectanceModel::fit_operator(const std::vector<Vec3d>&, const MapFitOptions&) const {
+  return make_error(ErrorCode::kUnsupported, "model " + name() + " is not linear in shared directions");
+}
+
+Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContext& context,
+                                       const std::function<std::unique_ptr<TexelFitter>()>& make_fitter) {
+  const MapFitOptions& options = context.options;
+  if (options.shared_lights)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "shared_lights applies to Phong models only, not " + model->family());
+  const ObservationMapSpec& spec = context.spec;
+  const bool holding_out = !options.held_out.empty();
+  ParameterMap map(model, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
+  if (holding_out) map.set_holdout_rms(0, 0, Vec3d::Zero());  // channels before threads
+  // One fitter per worker, made on first use.
+  std::vector<std::unique_ptr<TexelFitter>> fitters(static_cast<size_t>(context.workers));
+  auto fit_texel = [&](int worker, int s, int t, const TexelObservations& texel, const TexelObservations& held) {
+    FitQuality q, hq;
+    q.samples = static_cast<int>(texel.size());
+    // Distinct texels: no two threads write the same map element.
+    if (static_cast<int>(texel.size()) >= options.min_observations) {
+      auto& fitter = fitters[static_cast<size_t>(worker)];
+      if (!fitter) fitter = make_fitter();
+      const std::vector<double> p = fitter->fit(texel);
+      map.set_parameters(s, t, p);
+      q = measure_quality(*model, p, texel);
+      if (held.size()) hq = measure_quality(*model, p, held);
+    }
+    map.set_quality(s, t, q);
+    if (holding_out) map.set_holdout_rms(s, t, hq.rms);
+  };
+  VDRIG_TRY(context.for_each_texel(0, 1, fit_texel));
+  return map;
+}
+
+void ModelRegistry::add(Entry entry) {
+  for (const Entry& e : entries_) VDRIG_CHECK(e.family != entry.family, "model " + entry.family + " registered twice");
+  VDRIG_CHECK(!entry.family.empty() && entry.family.find(':') == std::string::npos && entry.parse,
+              "a model family needs a name without ':' and a parser");
+  entries_.push_back(std::move(entry));
+}
+
+Result<ModelPtr> ModelRegistry::parse(const std::string& name) const {
+  const auto colon = name.find(':');
+  const std::string family = name.substr(0, colon);
+  const std::string settings = colon == std::string::npos ? "" : name.substr(colon + 1);
+  auto bad = [&](const std::string& why) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "model \"" + name + "\": " + why + " (expected " + syntax("|") + ")");
+  };
+  for (const Entry& e : entries_) {
+    if (e.family != family) continue;
+    auto model = e.parse(settings);
+    if (!model) return bad(model.error().message);
+    return model;
+  }
+  return bad("unknown model");
+}
+
+std::vector<std::string> ModelRegistry::families() const {
+  std::vector<std::string> names;
+  for (const Entry& e : entries_) names.push_back(e.family);
+  return names;
+}
+
+std::string ModelRegistry::syntax(const std::string& separator) const {
+  std::string s;
+  for (const Entry& e : entries_) {
+    std::string part = e.syntax;
+    // An entry's syntax may list alternatives with '|': they take the separator too.
+    for (size_t p = part.find('|'); p != std::string::npos; p = part.find('|', p + separator.size()))
+      part.replace(p, 1, separator);
+    s += (s.empty() ? "" : separator) + part;
+  }
+  return s;
+}
+
+const ModelRegistry& model_registry() {
+  static const ModelRegistry registry = [] {
+    ModelRegistry r;
+    register_builtin_models(r);
+    return r;
+  }();
+  return registry;
+}
+
+Result<ModelPtr> parse_model(const std::string& name) { return model_registry().parse(name); }
+
+}  // namespace vdrig::fitting
