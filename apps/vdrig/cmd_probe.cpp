@@ -22,7 +22,7 @@ namespace {
 
 Error usage(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); }
 
-// JSON files written here carry a format version (design notes: every file format has one).
+// JSON files written here carry a format version (docs/conventions.md: every file format has one).
 constexpr int kLightsFormatVersion = 1;
 constexpr int kSh9FormatVersion = 1;
 

@@ -1,6 +1,6 @@
 // Reading one backend's JSON settings with up-front validation. Every problem is collected (not just the first)
 // so a bad config file is fixed in one round; the result is a kInvalidArgument naming the section and each reason.
-// Units at this edge are degrees, millimetres and seconds (design notes); converting to radians is the caller's.
+// Units at this edge are degrees, millimetres and seconds (docs/conventions.md); converting to radians is the caller's.
 #pragma once
 
 #include <initializer_list>

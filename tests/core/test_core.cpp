@@ -9,17 +9,11 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/response.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig {
 namespace {
 namespace fs = std::filesystem;
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vdrig_core_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 TEST(Geometry, SphericalRoundTripAndConventions) {
   const Vec3d d = direction_from_spherical(deg_to_rad(30), deg_to_rad(60));
@@ -58,7 +52,7 @@ TEST(CameraModel, UndistortInvertsDistortAndProjectMatchesRay) {
 }
 
 TEST(CameraModel, YamlRoundTripAndBadFiles) {
-  const fs::path d = temp_dir("yaml");
+  const test::TempDir d("core_yaml");
   CameraModel cam{640, 480, 536, 530, 342, 235, -0.2, 0.05, 0.001, -0.002, 0.1};
   ASSERT_TRUE(cam.save_yaml(d / "camera.yml", 0.3));
   auto back = CameraModel::load_yaml(d / "camera.yml");
@@ -68,7 +62,6 @@ TEST(CameraModel, YamlRoundTripAndBadFiles) {
   EXPECT_EQ(CameraModel::load_yaml(d / "missing.yml").error().code, ErrorCode::kNotFound);
   std::ofstream(d / "bad.yml") << "%YAML:1.0\n---\nimage_width: 10\n";
   EXPECT_EQ(CameraModel::load_yaml(d / "bad.yml").error().code, ErrorCode::kCorrupt);
-  fs::remove_all(d);
 }
 
 TEST(ResponseCurve, SCurveIsMonotonicAndInverts) {
@@ -88,7 +81,7 @@ TEST(ResponseCurve, SCurveIsMonotonicAndInverts) {
 }
 
 TEST(ImageIo, ExrRoundTripKeepsChannelsAndAttributes) {
-  const fs::path d = temp_dir("exr");
+  const test::TempDir d("core_exr");
   ExrImage img;
   cv::Mat a(3, 5, CV_32FC1), b(3, 5, CV_32FC1);
   cv::randu(a, -10, 1e4);
@@ -115,11 +108,10 @@ TEST(ImageIo, ExrRoundTripKeepsChannelsAndAttributes) {
   std::ofstream(d / "text.exr") << "not an exr";
   EXPECT_EQ(read_exr(d / "text.exr").error().code, ErrorCode::kCorrupt);
   EXPECT_EQ(read_exr(d / "none.exr").error().code, ErrorCode::kNotFound);
-  fs::remove_all(d);
 }
 
 TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
-  const fs::path d = temp_dir("atomic");
+  const test::TempDir d("core_atomic");
   ASSERT_TRUE(write_file_atomic(d / "a.txt", "hello"));
   ASSERT_TRUE(write_file_atomic(d / "a.txt", "world"));
   std::ifstream in(d / "a.txt");
@@ -131,7 +123,6 @@ TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
   EXPECT_EQ(files, 1);
   EXPECT_FALSE(write_file_atomic(d / "no" / "such" / "dir.txt", "x"));
   EXPECT_FALSE(write_png(d / "empty.png", cv::Mat()));
-  fs::remove_all(d);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // Modified Phong with K lobes, per colour channel c:   I_c(v) = Kd_c + sum_k Ks_kc max(0, v . r_k)^m_k
-// (design notes). With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared by all
-// lobes (as the source method) or one per lobe.
+// (docs/conventions.md). With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared
+// by all lobes (as the source method) or one per lobe.
 //
 // Fitting (fit_phong): non-linear least squares, all observations of a texel at once (3 residuals each), analytic
 // derivatives, a bounded Levenberg-Marquardt that accumulates J^T J directly (phong.cpp; Ceres did the same with

@@ -1,7 +1,7 @@
 // Real spherical harmonics (SH) for per-texel view-dependent radiance, and the linear fitters of the source
 // (zero-hemisphere projection, least-squares optimal projection) plus plain weighted least squares.
 //
-// Conventions (../shared/design-notes.md, "Models"):
+// Conventions (docs/conventions.md, "Models"):
 //  - y_i with i = l (l + 1) + m, l in [0, bands), m in [-l, l]; `bands` = n gives n^2 coefficients, n <= 10.
 //  - K_l^m = sqrt((2l+1)(l-|m|)! / (4 pi (l+|m|)!));
 //    m > 0: sqrt2 K cos(m azimuth) P_l^m(cos zenith); m < 0: sqrt2 K sin(-m azimuth) P_l^-m(cos zenith);

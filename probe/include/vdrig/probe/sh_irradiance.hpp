@@ -7,7 +7,7 @@
 // maps the dropped bands 3.. carry little of the cosine kernel (A_3 = 0, A_4 = -pi / 24), which is RH's
 // "~1-3 % average error" (bench_probe_lights and test_sh_irradiance measure it on the three real probes).
 //
-// Basis: the design notes' real SH, index i = l (l + 1) + m, K_l^m normalisation and the Condon-Shortley phase,
+// Basis: real SH (docs/conventions.md), index i = l (l + 1) + m, K_l^m normalisation and the Condon-Shortley phase,
 // identical to fitting::sh_basis (test_sh_irradiance checks it), written out for bands 0..2 so that probe does not
 // link the fitting module (and its Ceres/zstd dependencies):
 //   y0 = 0.282095; y1 = -0.488603 y; y2 = 0.488603 z; y3 = -0.488603 x; y4 = 1.092548 x y; y5 = -1.092548 y z;
