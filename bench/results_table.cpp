@@ -1,6 +1,6 @@
 // The source method's comparison tests (Mortensen & Andersen, "Modeling View-Dependent Surface Point Radiance with
 // Parameter Maps", 2007, chapters 11-13) re-run on the simulator, with the source's figures beside ours where it gives
-// them (issue #5).
+// them.
 //
 // Every texel is observed as the rig sees it: for each direction of a capture scheme, the camera pose from
 // rig::surface_pose (pan = pi/2 - azimuth, tilt = zenith) at 2500 mm, the view direction from the texel to the
