@@ -1,6 +1,6 @@
-// Median cut (64 and 256 lights) and SH-9 projection on the three real probes (1024 x 512): time per call (best of
-// several runs) and irradiance accuracy against brute-force integration over the full map at 1024 Fibonacci
-// normals (mean and max relative error of the luminance irradiance, and mean |dE| / mean E).
+// Median cut (64 and 256 lights) and SH-9 projection on the three real probes of tests/data/probes (1024 x 512):
+// time per call (best of several runs) and irradiance accuracy against brute-force integration over the full map
+// at 1024 Fibonacci normals (mean and max relative error of the luminance irradiance, and mean |dE| / mean E).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -33,7 +33,7 @@ double best_seconds(int runs, const std::function<void()>& f) {
 }  // namespace
 
 int main() {
-  const std::filesystem::path dir = std::filesystem::path(VDRIG_SHARED_DATA_DIR) / "probes";
+  const std::filesystem::path dir = std::filesystem::path(VDRIG_TEST_DATA_DIR) / "probes";
   const auto normals = fibonacci_directions(1024);
   std::printf("%-10s %-16s %10s %10s %10s %12s\n", "probe", "method", "time ms", "E mean %", "E max %",
               "|dE|/E mean %");

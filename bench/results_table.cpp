@@ -1,5 +1,6 @@
-// The source method's comparison tests (../shared/seeds/view-dependent-surface-radiance-parameter-maps.txt,
-// chapters 11-13) re-run on the simulator, with the source's figures beside ours where it gives them (issue #5).
+// The source method's comparison tests (Mortensen & Andersen, "Modeling View-Dependent Surface Point Radiance with
+// Parameter Maps", 2007, chapters 11-13) re-run on the simulator, with the source's figures beside ours where it gives
+// them.
 //
 // Every texel is observed as the rig sees it: for each direction of a capture scheme, the camera pose from
 // rig::surface_pose (pan = pi/2 - azimuth, tilt = zenith) at 2500 mm, the view direction from the texel to the
@@ -472,7 +473,8 @@ int main(int argc, char** argv) {
   md += format("Generated %s by `bench_results_table docs/results.md` (bench/results_table.cpp); regenerate with\n",
                date);
   md += "`ninja bench_results_table && ./bench/bench_results_table <repo>/docs/results.md` from a build directory.\n";
-  md += "Source: ../shared/seeds/view-dependent-surface-radiance-parameter-maps.txt (chapters 11-13); its figures\n";
+  md += "Source: Mortensen & Andersen, \"Modeling View-Dependent Surface Point Radiance with Parameter Maps\"\n";
+  md += "(Aalborg University, 2007), chapters 11-13; its figures\n";
   md +=
       "are quoted where it gives them (\"-\" where it gives none). Texels are observed as the rig sees them (camera\n";
   md += "at 2500 mm, view direction from the texel to the camera), noise-free unless stated. Phong errors are\n";

@@ -3,7 +3,7 @@
 //  - HSH least squares, 9 coefficients per channel, 256 x 256 texels x 289 directions (target < 2.5 s);
 //  - for reference, texels with individual direction sets (ShTexelFitter, Voronoi per texel).
 // Values are random (the cost does not depend on them). The map is processed in tiles of 4096 texels, as the
-// out-of-core observation map delivers it; one tile buffer is reused so memory stays at ~15 MB.
+// out-of-core observation map delivers it; one tile buffer is reused, so memory does not grow with the map.
 // Usage: bench_sh_fit [threads]   (default 2)
 #include <chrono>
 #include <cmath>

@@ -1,5 +1,6 @@
 // Registration hooks of the hardware backends. Each is defined in its backend's source file, which is compiled only
-// when its library was found (VDRIG_HAVE_<LIB>, set by rig/CMakeLists.txt); hardware.cpp calls those built.
+// when its option is on and its library was found (VDRIG_HAVE_<NAME>, defined by rig_backend in rig/CMakeLists.txt);
+// hardware.cpp calls those built.
 #pragma once
 
 #include "vdrig/rig/registry.hpp"

@@ -3,7 +3,7 @@
 
 namespace vdrig::rig {
 
-// Each hardware backend adds itself here, guarded by the build option of its library (see rig/CMakeLists.txt).
+// Each hardware backend adds itself here, guarded by its VDRIG_HAVE_<NAME> (rig_backend in rig/CMakeLists.txt).
 void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
 #ifdef VDRIG_HAVE_MODBUS
   register_modbus_backends(registry);

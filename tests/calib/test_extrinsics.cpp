@@ -10,6 +10,7 @@
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::calib {
 namespace {
@@ -190,10 +191,10 @@ TEST(Extrinsics, ViewsJsonRoundTrip) {
   b.index = 1;
   b.error = "found 3 of 4 markers";
   file.views = {a, b};
-  const auto path = std::filesystem::temp_directory_path() / ("vdrig_views_" + std::to_string(::getpid()) + ".json");
+  const test::TempDir dir("views");
+  const auto path = dir / "views.json";
   ASSERT_TRUE(write_views_json(path, file));
   auto back = read_views_json(path);
-  std::filesystem::remove(path);
   ASSERT_TRUE(back) << back.error().describe();
   ASSERT_EQ(back->views.size(), 2u);
   EXPECT_TRUE(back->views[0].usable());

@@ -10,6 +10,7 @@
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/calib/response_recovery.hpp"
 #include "vdrig/calib/synthetic.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::calib {
 namespace {
@@ -251,8 +252,7 @@ TEST(HdrIo, ExrRoundTripHalfAndFloat) {
   const auto b = make_synthetic_bracket(resp, {.width = 64, .height = 48});
   auto hdr = merge_hdr(b.frames, resp);
   ASSERT_TRUE(hdr);
-  const auto dir = std::filesystem::temp_directory_path() / ("vdrig_calib_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir dir("hdr_io");
   for (auto type : {ExrPixelType::kHalf, ExrPixelType::kFloat}) {
     const auto path = dir / (type == ExrPixelType::kHalf ? "half.exr" : "float.exr");
     const auto st = write_hdr_exr(path, *hdr, type);
@@ -272,7 +272,6 @@ TEST(HdrIo, ExrRoundTripHalfAndFloat) {
     EXPECT_EQ(back->bits, 8);
   }
   EXPECT_FALSE(read_hdr_exr(dir / "missing.exr"));
-  std::filesystem::remove_all(dir);
 }
 
 TEST(HdrInput, BadBracketsAreErrorValues) {

@@ -1,22 +1,23 @@
 // Intrinsics from OpenCV's own chessboard photographs, against the calibration OpenCV stored with them.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
 #include <algorithm>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "vdrig/calib/intrinsics.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::calib {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kDir = fs::path(VDRIG_SHARED_DATA_DIR) / "chessboard";
+// OpenCV's samples (Apache 2.0, tests/data/README.md).
+const fs::path kDir = fs::path(VDRIG_TEST_DATA_DIR) / "chessboard";
 
-/// left01.jpg .. left14.jpg (left.jpg is a different, resized photo), in name order.
+/// left01.jpg .. left14.jpg (no left10.jpg), in name order.
 std::vector<fs::path> board_images() {
   std::vector<fs::path> paths;
   for (const auto& e : fs::directory_iterator(kDir)) {
@@ -35,7 +36,7 @@ struct Reference {
 class Intrinsics : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(fs::is_directory(kDir)) << "shared data missing: " << kDir
+    ASSERT_TRUE(fs::is_directory(kDir)) << "test data missing: " << kDir
                                         << " (the chessboard photos and left_intrinsics.yml belong there)";
     for (const auto& p : board_images()) {
       images_.push_back(cv::imread(p.string(), cv::IMREAD_GRAYSCALE));
@@ -106,7 +107,8 @@ TEST_F(Intrinsics, MatchesOpenCvReferenceWithItsSettings) {
   EXPECT_LT(r->views[0].pose.t.z(), 600.0);
 
   // YAML: readable back by CameraModel (and OpenCV), with the calibration record.
-  const fs::path path = fs::temp_directory_path() / ("vdrig_intrinsics_" + std::to_string(::getpid()) + ".yml");
+  const test::TempDir dir("intrinsics");
+  const fs::path path = dir / "camera.yml";
   ASSERT_TRUE(r->save_yaml(path));
   auto back = CameraModel::load_yaml(path);
   ASSERT_TRUE(back) << back.error().describe();
@@ -123,7 +125,6 @@ TEST_F(Intrinsics, MatchesOpenCvReferenceWithItsSettings) {
   EXPECT_EQ(sd.total(), 9u);
   EXPECT_NEAR(static_cast<double>(fs["avg_reprojection_error"]), r->rms_px, 1e-12);
   fs.release();
-  fs::remove(path);
 }
 
 TEST_F(Intrinsics, OutlierDropWithReferenceSettings) {

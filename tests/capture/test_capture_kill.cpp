@@ -25,7 +25,7 @@ using testing::make_sim_rig;
 using testing::small_sim_config;
 
 fs::path create_session(const std::string& name, const std::string& scheme, const std::string& bracket) {
-  const fs::path dir = testing::temp_dir(name, "vdrig_kill_");
+  const fs::path dir = test::fresh_temp_dir("kill_" + name);
   auto rig = make_sim_rig(small_sim_config());
   EXPECT_TRUE(rig) << rig.error().describe();
   PlanRequest req;

@@ -34,14 +34,8 @@ using testing::send_all;
 
 class DaemonFixture : public ::testing::Test {
  protected:
-  void SetUp() override {
-    root_ = testing::temp_dir("", "vdrigd_test");
-    start_daemon();
-  }
-  void TearDown() override {
-    stop_daemon();
-    fs::remove_all(root_);
-  }
+  void SetUp() override { start_daemon(); }
+  void TearDown() override { stop_daemon(); }
 
   /// Starts the in-process daemon on root_; `tweak` adjusts the config first (e.g. the allowed peers).
   void start_daemon(const std::function<void(DaemonConfig&)>& tweak = {}) {
@@ -72,7 +66,7 @@ class DaemonFixture : public ::testing::Test {
     return fd;
   }
 
-  fs::path root_;
+  const test::TempDir root_{"vdrigd"};
   std::unique_ptr<Daemon> daemon_;
   std::thread thread_;
   Status loop_status_;

@@ -16,8 +16,6 @@ namespace fs = std::filesystem;
 using testing::FakeCamera;
 using testing::FakeStage;
 
-using testing::temp_dir;
-
 Manifest small_manifest(const std::string& bracket, int views) {
   Manifest m;
   m.scheme = "test";
@@ -74,7 +72,7 @@ TEST(BracketSpec, ParsesAutoWithLimitsAndRoi) {
 }
 
 TEST(AutoBracket, HalvesUntilNothingSaturatedAndRecordsEveryFrame) {
-  const fs::path dir = temp_dir("auto");
+  const test::TempDir dir("bracket_auto");
   auto session = Session::create(dir, small_manifest("auto", 3));
   ASSERT_TRUE(session);
   FakeStage* stage = nullptr;
@@ -99,11 +97,10 @@ TEST(AutoBracket, HalvesUntilNothingSaturatedAndRecordsEveryFrame) {
   auto again = Session::open(dir);
   ASSERT_TRUE(again);
   EXPECT_EQ(again->view_frame_count(2), 3);
-  fs::remove_all(dir);
 }
 
 TEST(AutoBracket, RegionOfInterestAndFloor) {
-  const fs::path dir = temp_dir("roi");
+  const test::TempDir dir("bracket_roi");
   auto session = Session::create(dir, small_manifest("auto", 2));
   ASSERT_TRUE(session);
   FakeCamera* camera = nullptr;
@@ -117,7 +114,7 @@ TEST(AutoBracket, RegionOfInterestAndFloor) {
   EXPECT_EQ(session->frames_of_view(0).size(), 1u);
   EXPECT_FALSE(session->frames_of_view(0)[0].saturated);
 
-  const fs::path dir2 = temp_dir("floor");
+  const test::TempDir dir2("bracket_floor");
   auto s2 = Session::create(dir2, small_manifest("auto", 1));
   ASSERT_TRUE(s2);
   o.bracket = parse_bracket("auto:1:0.1").value();  // whole image: stops at the floor, still saturated
@@ -126,12 +123,10 @@ TEST(AutoBracket, RegionOfInterestAndFloor) {
   ASSERT_EQ(frames.size(), 4u);  // 1, 0.5, 0.25, 0.125 (0.0625 < floor)
   EXPECT_DOUBLE_EQ(frames.back().exposure_s, 0.125);
   EXPECT_TRUE(frames.back().saturated);
-  fs::remove_all(dir);
-  fs::remove_all(dir2);
 }
 
 TEST(Capture, WarnsInJournalWhenCameraIsInAutoExposure) {
-  const fs::path dir = temp_dir("autoexp");
+  const test::TempDir dir("bracket_autoexp");
   auto session = Session::create(dir, small_manifest("fixed:0.1", 1));
   ASSERT_TRUE(session);
   FakeCamera* camera = nullptr;
@@ -144,11 +139,10 @@ TEST(Capture, WarnsInJournalWhenCameraIsInAutoExposure) {
   std::ifstream in(SessionLayout(dir).journal_file());
   std::string text((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(text.find("auto exposure"), std::string::npos) << text;
-  fs::remove_all(dir);
 }
 
 TEST(Capture, RetriesTransientFaultsThenStopsWithTheFault) {
-  const fs::path dir = temp_dir("faults");
+  const test::TempDir dir("bracket_faults");
   auto session = Session::create(dir, small_manifest("fixed:0.1,0.2", 4));
   ASSERT_TRUE(session);
   FakeStage* stage = nullptr;
@@ -185,11 +179,10 @@ TEST(Capture, RetriesTransientFaultsThenStopsWithTheFault) {
   ASSERT_TRUE(run_capture(rig, reopened.value(), o));
   for (int v = 0; v < 4; ++v) EXPECT_EQ(reopened->frames_of_view(v).size(), 2u);
   EXPECT_EQ(reopened->completed_view_count(), 4);
-  fs::remove_all(dir);
 }
 
 TEST(Capture, DiskReserveStopsBeforeAnythingIsWritten) {
-  const fs::path dir = temp_dir("reserve");
+  const test::TempDir dir("bracket_reserve");
   auto session = Session::create(dir, small_manifest("fixed:0.1", 2));
   ASSERT_TRUE(session);
   rig::Rig rig = testing::make_fake_rig();
@@ -205,11 +198,10 @@ TEST(Capture, DiskReserveStopsBeforeAnythingIsWritten) {
   o.disk_reserve_bytes = 0;
   ASSERT_TRUE(run_capture(rig, session.value(), o));
   EXPECT_EQ(session->completed_view_count(), 2);
-  fs::remove_all(dir);
 }
 
 TEST(Session, TornJournalLineIsCutSoLaterAppendsStayReadable) {
-  const fs::path dir = temp_dir("torn");
+  const test::TempDir dir("bracket_torn");
   auto session = Session::create(dir, small_manifest("fixed:0.1", 3));
   ASSERT_TRUE(session);
   rig::Rig rig = testing::make_fake_rig();
@@ -227,7 +219,6 @@ TEST(Session, TornJournalLineIsCutSoLaterAppendsStayReadable) {
   auto final_open = Session::open(dir);
   ASSERT_TRUE(final_open) << final_open.error().describe();
   EXPECT_EQ(final_open->completed_view_count(), 3);
-  fs::remove_all(dir);
 }
 
 TEST(Plan, RoutePlannerOrdersViewsAndRecordsTimes) {

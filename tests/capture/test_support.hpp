@@ -1,5 +1,5 @@
-// Helpers shared by the capture tests: per-process temporary folders, the small simulated rig, and a line-based
-// client for vdrigd's socket (docs/protocol.md).
+// Helpers shared by the capture tests: the small simulated rig and a line-based client for vdrigd's socket
+// (docs/protocol.md). Temporary folders come from vdrig/test/temp_dir.hpp, as in every module's tests.
 #pragma once
 
 #include <poll.h>
@@ -16,34 +16,9 @@
 
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::capture::testing {
-
-/// A fresh folder under the system temp dir, unique per test process (`prefix` + name + pid); emptied if it exists.
-/// Not created: Session::create and the daemon create what they need.
-inline std::filesystem::path temp_dir(const std::string& name, const std::string& prefix = "vdrig_test_") {
-  const std::filesystem::path d =
-      std::filesystem::temp_directory_path() / (prefix + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  return d;
-}
-
-/// temp_dir() removed again when the scope ends (also when an ASSERT returns early).
-class ScopedTempDir {
- public:
-  explicit ScopedTempDir(const std::string& name, const std::string& prefix = "vdrig_test_")
-      : path_(temp_dir(name, prefix)) {}
-  ~ScopedTempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScopedTempDir(const ScopedTempDir&) = delete;
-  ScopedTempDir& operator=(const ScopedTempDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 /// The simulator at 160x120 with one sample per pixel axis: fast enough for sessions of a hundred views.
 inline nlohmann::json small_sim_config() {

@@ -155,7 +155,7 @@ TEST(Vdrigd, SigtermMidSessionExitsCleanlyAndTheSessionResumes) {
 #ifndef VDRIG_VDRIGD_PATH
   GTEST_SKIP() << "vdrigd is not part of this build (VDRIG_VDRIGD_PATH undefined)";
 #endif
-  testing::ScopedTempDir root("", "vdrigd_sigterm");
+  const test::TempDir root("vdrigd_sigterm");
   const fs::path session_dir = root.path() / "sessions" / "s";
   int views_at_term = 0;
   {

@@ -15,17 +15,11 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/response.hpp"
 #include "vdrig/core/settings.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig {
 namespace {
 namespace fs = std::filesystem;
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vdrig_core_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 TEST(Geometry, SphericalRoundTripAndConventions) {
   const Vec3d d = direction_from_spherical(deg_to_rad(30), deg_to_rad(60));
@@ -64,7 +58,7 @@ TEST(CameraModel, UndistortInvertsDistortAndProjectMatchesRay) {
 }
 
 TEST(CameraModel, YamlRoundTripAndBadFiles) {
-  const fs::path d = temp_dir("yaml");
+  const test::TempDir d("core_yaml");
   CameraModel cam{640, 480, 536, 530, 342, 235, -0.2, 0.05, 0.001, -0.002, 0.1};
   ASSERT_TRUE(cam.save_yaml(d / "camera.yml", 0.3));
   auto back = CameraModel::load_yaml(d / "camera.yml");
@@ -74,7 +68,6 @@ TEST(CameraModel, YamlRoundTripAndBadFiles) {
   EXPECT_EQ(CameraModel::load_yaml(d / "missing.yml").error().code, ErrorCode::kNotFound);
   std::ofstream(d / "bad.yml") << "%YAML:1.0\n---\nimage_width: 10\n";
   EXPECT_EQ(CameraModel::load_yaml(d / "bad.yml").error().code, ErrorCode::kCorrupt);
-  fs::remove_all(d);
 }
 
 TEST(ResponseCurve, SCurveIsMonotonicAndInverts) {
@@ -94,7 +87,7 @@ TEST(ResponseCurve, SCurveIsMonotonicAndInverts) {
 }
 
 TEST(ImageIo, ExrRoundTripKeepsChannelsAndAttributes) {
-  const fs::path d = temp_dir("exr");
+  const test::TempDir d("core_exr");
   ExrImage img;
   cv::Mat a(3, 5, CV_32FC1), b(3, 5, CV_32FC1);
   cv::randu(a, -10, 1e4);
@@ -121,11 +114,10 @@ TEST(ImageIo, ExrRoundTripKeepsChannelsAndAttributes) {
   std::ofstream(d / "text.exr") << "not an exr";
   EXPECT_EQ(read_exr(d / "text.exr").error().code, ErrorCode::kCorrupt);
   EXPECT_EQ(read_exr(d / "none.exr").error().code, ErrorCode::kNotFound);
-  fs::remove_all(d);
 }
 
 TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
-  const fs::path d = temp_dir("atomic");
+  const test::TempDir d("core_atomic");
   ASSERT_TRUE(write_file_atomic(d / "a.txt", "hello"));
   ASSERT_TRUE(write_file_atomic(d / "a.txt", "world"));
   std::ifstream in(d / "a.txt");
@@ -137,7 +129,6 @@ TEST(ImageIo, AtomicWriteLeavesNoTemporaryAndReportsBadFolders) {
   EXPECT_EQ(files, 1);
   EXPECT_FALSE(write_file_atomic(d / "no" / "such" / "dir.txt", "x"));
   EXPECT_FALSE(write_png(d / "empty.png", cv::Mat()));
-  fs::remove_all(d);
 }
 
 TEST(Settings, CollectsEveryProblemAndAcceptsTheEnvelope) {
@@ -178,7 +169,7 @@ TEST(FileIo, ErrnoMapsToNoSpaceOnlyForAFullDiskOrQuota) {
 }
 
 TEST(FileIo, FsyncPathSyncsFilesAndFoldersAndNamesWhatFailed) {
-  const fs::path d = temp_dir("fsync");
+  const test::TempDir d("core_fsync");
   ASSERT_TRUE(write_file_atomic(d / "a.txt", "a"));
   EXPECT_TRUE(fsync_path(d / "a.txt", false));
   EXPECT_TRUE(fsync_path(d, true));
@@ -187,18 +178,16 @@ TEST(FileIo, FsyncPathSyncsFilesAndFoldersAndNamesWhatFailed) {
   EXPECT_EQ(missing.error().code, ErrorCode::kIo);
   EXPECT_NE(missing.error().message.find((d / "missing").string()), std::string::npos) << missing.describe();
   EXPECT_FALSE(fsync_path(d / "a.txt", true));  // not a folder
-  fs::remove_all(d);
 }
 
 TEST(FileIo, WriteAllWritesEverythingAndReportsAFullDevice) {
-  const fs::path d = temp_dir("write_all");
+  const test::TempDir d("core_write_all");
   const std::string text(1 << 20, 'x');
   const int fd = ::open((d / "big").c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   ASSERT_GE(fd, 0);
   EXPECT_EQ(write_all(fd, text.data(), text.size()), 0);
   ::close(fd);
   EXPECT_EQ(fs::file_size(d / "big"), text.size());
-  fs::remove_all(d);
   // /dev/full fails every write with ENOSPC: the disk-full path without filling a disk.
   const int full = ::open("/dev/full", O_WRONLY | O_CLOEXEC);
   if (full < 0) GTEST_SKIP() << "no /dev/full";

@@ -12,6 +12,7 @@
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/fitting/sh.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::fitting {
 namespace {
@@ -124,7 +125,8 @@ TEST(FitMap, PhongAutoChoosesTheLobeCountPerTexel) {
       }
     }
   // Round trip through the file keeps the auto flag, the lobe count and the values.
-  const auto path = std::filesystem::temp_directory_path() / "vdrig_test_fit_map_auto.exr";
+  const test::TempDir dir("fit_map_auto");
+  const auto path = dir / "map.exr";
   ASSERT_TRUE(map->write(path).is_ok());
   auto back = ParameterMap::read(path);
   ASSERT_TRUE(back) << back.error().describe();
@@ -134,7 +136,6 @@ TEST(FitMap, PhongAutoChoosesTheLobeCountPerTexel) {
   EXPECT_TRUE(back_model->auto_lobes());
   const Vec3d v = Vec3d(0.3, -0.2, 0.9).normalized();
   EXPECT_LT((back->evaluate(1, 1, v) - map->evaluate(1, 1, v)).norm(), 1e-6);
-  std::filesystem::remove(path);
 }
 
 /// RMS of a map texel's model against a set of observations, by ParameterMap::evaluate.
@@ -229,10 +230,10 @@ TEST(FitMap, ShMapRoundTripsThroughTheFile) {
       make_map([](int s, int t, const Vec3d& d) { return texel_phong(s, t, false).evaluate(d); });
   auto map = fit_parameter_map(obs, options_for("sh-ls:6"));
   ASSERT_TRUE(map) << map.error().describe();
-  const auto path = std::filesystem::temp_directory_path() / "vdrig_test_fit_map_sh.exr";
+  const test::TempDir dir("fit_map_sh");
+  const auto path = dir / "map.exr";
   ASSERT_TRUE(map->write(path).is_ok());
   auto back = ParameterMap::read(path);
-  std::filesystem::remove(path);
   ASSERT_TRUE(back) << back.error().describe();
   EXPECT_EQ(back->model().name(), "sh-ls:6");
   for (int t = 0; t < kT; ++t)
@@ -250,7 +251,8 @@ TEST(FitMap, ShMapRoundTripsThroughTheFile) {
 TEST(FitMap, FitFromFileTileByTileMatchesTheInMemoryFit) {
   const ObservationMap obs =
       make_map([](int s, int t, const Vec3d& d) { return texel_phong(s, t, (s + t) % 2 == 0).evaluate(d); });
-  const auto path = std::filesystem::temp_directory_path() / "vdrig_test_fit_map.vdobs";
+  const test::TempDir dir("fit_map_file");
+  const auto path = dir / "map.vdobs";
   ObsFileOptions file;
   file.tile_size = 2;  // 2 x 2 tiles over the 4 x 3 map, the last row of tiles partial
   ASSERT_TRUE(write_obsmap_file(obs, path, file).is_ok());
@@ -295,7 +297,6 @@ TEST(FitMap, FitFromFileTileByTileMatchesTheInMemoryFit) {
   auto damaged = ObsMapReader::open(path);
   ASSERT_TRUE(damaged) << "the header and index are intact: " << damaged.error().describe();
   auto fit = fit_parameter_map(damaged.value(), options_for("phong:1"));
-  std::filesystem::remove(path);
   ASSERT_FALSE(fit);
   EXPECT_EQ(fit.error().code, ErrorCode::kCorrupt) << fit.error().describe();
 }

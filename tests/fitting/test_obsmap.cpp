@@ -2,7 +2,6 @@
 // views, the file's error handling (truncated, corrupt, wrong magic/version, out-of-range tiles, full disk) and its
 // atomic publication.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -13,17 +12,11 @@
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/rig/kinematics.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::fitting {
 namespace {
 namespace fs = std::filesystem;
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vdrig_test_obsmap_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 /// A 20 x 13 map (edge tiles are partial with 8-texel tiles) over a 1000 x 800 mm surface, seen by 11 views spread
 /// over the hemisphere (one beyond the horizon, one excluded, one with a clip mask), through a small distorted
@@ -141,7 +134,7 @@ TEST(ObsMapFile, InMemoryMapFromSyntheticViewsHasEveryKindOfObservation) {
 
 TEST(ObsMapFile, StreamedFileMatchesInMemoryMapUncompressed) {
   const Fixture f;
-  const fs::path dir = temp_dir("raw");
+  const test::TempDir dir("obsmap_raw");
   const fs::path path = dir / "map.vdobs";
   const Status st = f.write(path, options(ObsCompression::kNone));
   ASSERT_TRUE(st) << st.describe();
@@ -157,12 +150,11 @@ TEST(ObsMapFile, StreamedFileMatchesInMemoryMapUncompressed) {
   expect_identical(f.in_memory(), reader.value());
   // Only the result is left in the folder: no temporary or spill file.
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
-  fs::remove_all(dir);
 }
 
 TEST(ObsMapFile, StreamedFileMatchesInMemoryMapCompressed) {
   const Fixture f;
-  const fs::path dir = temp_dir("zstd");
+  const test::TempDir dir("obsmap_zstd");
   for (const int tile : {8, 32, 1}) {
     const fs::path path = dir / ("map" + std::to_string(tile) + ".vdobs");
     const Status st = f.write(path, options(ObsCompression::kZstd, tile));
@@ -179,18 +171,16 @@ TEST(ObsMapFile, StreamedFileMatchesInMemoryMapCompressed) {
     ASSERT_TRUE(all) << all.error().describe();
     EXPECT_EQ(all->texel(7, 9).radiance, f.in_memory().texel(7, 9).radiance);
   }
-  fs::remove_all(dir);
 }
 
 TEST(ObsMapFile, InMemoryMapWrittenToFileReadsBack) {
   const Fixture f;
-  const fs::path dir = temp_dir("from_map");
+  const test::TempDir dir("obsmap_from_map");
   const ObservationMap mem = f.in_memory();
   ASSERT_TRUE(write_obsmap_file(mem, dir / "m.vdobs"));
   auto reader = ObsMapReader::open(dir / "m.vdobs");
   ASSERT_TRUE(reader) << reader.error().describe();
   expect_identical(mem, reader.value());
-  fs::remove_all(dir);
 }
 
 std::vector<char> slurp(const fs::path& p) {
@@ -204,7 +194,7 @@ void spit(const fs::path& p, const std::vector<char>& bytes) {
 
 TEST(ObsMapFile, TruncatedAndCorruptFilesAreRejectedWithTheReason) {
   const Fixture f;
-  const fs::path dir = temp_dir("corrupt");
+  const test::TempDir dir("obsmap_corrupt");
   const fs::path good = dir / "good.vdobs", bad = dir / "bad.vdobs";
   for (const auto c : {ObsCompression::kNone, ObsCompression::kZstd}) {
     ASSERT_TRUE(f.write(good, options(c)));
@@ -266,12 +256,11 @@ TEST(ObsMapFile, TruncatedAndCorruptFilesAreRejectedWithTheReason) {
   auto missing = ObsMapReader::open(dir / "missing.vdobs");
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
-  fs::remove_all(dir);
 }
 
 TEST(ObsMapFile, OutOfRangeTilesAndTexelsAreErrors) {
   const Fixture f;
-  const fs::path dir = temp_dir("range");
+  const test::TempDir dir("obsmap_range");
   ASSERT_TRUE(f.write(dir / "m.vdobs", options(ObsCompression::kZstd)));
   auto r = ObsMapReader::open(dir / "m.vdobs");
   ASSERT_TRUE(r);
@@ -287,12 +276,11 @@ TEST(ObsMapFile, OutOfRangeTilesAndTexelsAreErrors) {
   EXPECT_EQ(edge->s0(), 16);
   EXPECT_EQ(edge->width(), 4);
   EXPECT_EQ(edge->height(), 5);
-  fs::remove_all(dir);
 }
 
 TEST(ObsMapFile, WriterMisuseIsAnError) {
   const Fixture f;
-  const fs::path dir = temp_dir("misuse");
+  const test::TempDir dir("obsmap_misuse");
   auto w = ObsMapWriter::create(dir / "m.vdobs", f.spec, 11, options(ObsCompression::kNone));
   ASSERT_TRUE(w);
   ASSERT_TRUE(w->add_view(0, f.views[0]));
@@ -305,12 +293,11 @@ TEST(ObsMapFile, WriterMisuseIsAnError) {
   o.tile_size = 0;
   EXPECT_EQ(ObsMapWriter::create(dir / "x.vdobs", f.spec, 11, o).error().code, ErrorCode::kInvalidArgument);
   EXPECT_EQ(ObsMapWriter::create(dir / "no/such/dir/x.vdobs", f.spec, 11).error().code, ErrorCode::kIo);
-  fs::remove_all(dir);
 }
 
 TEST(ObsMapFile, FullDiskIsNoSpaceAndLeavesThePreviousFileAlone) {
   const Fixture f;
-  const fs::path dir = temp_dir("full");
+  const test::TempDir dir("obsmap_full");
   const fs::path path = dir / "m.vdobs";
   ASSERT_TRUE(f.write(path, options(ObsCompression::kZstd)));
   const std::vector<char> before = slurp(path);
@@ -328,7 +315,6 @@ TEST(ObsMapFile, FullDiskIsNoSpaceAndLeavesThePreviousFileAlone) {
     EXPECT_EQ(slurp(path), before) << "the published file was touched";
     EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1) << "temporary files left";
   }
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// The issue #5 targets that the source method's comparison tests (../shared/seeds/view-dependent-surface-radiance-
-// parameter-maps.txt, chapters 11-13) set, checked on the simulator's ground truth. The full table with the source's
+// The issue #5 targets that the source method's comparison tests (Mortensen & Andersen 2007, named in docs/results.md;
+// chapters 11-13) set, checked on the simulator's ground truth. The full table with the source's
 // figures beside ours is docs/results.md (bench/results_table.cpp); these tests hold the figures that must not
 // regress. Texels are observed as the rig sees them: for each scheme direction the camera pose of rig::surface_pose
 // (pan = pi/2 - azimuth, tilt = zenith) at 2500 mm, the view direction from the texel to the camera centre, and the

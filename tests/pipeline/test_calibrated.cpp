@@ -7,6 +7,7 @@
 
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -14,12 +15,7 @@ namespace fs = std::filesystem;
 
 class Calibrated : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("vdrig_calibrated_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  const test::TempDir dir_{"calibrated"};
 };
 
 TEST_F(Calibrated, MarkerPosesReplaceGroundTruth) {

@@ -7,6 +7,7 @@
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::pipeline {
@@ -15,12 +16,7 @@ namespace fs = std::filesystem;
 
 class EndToEnd : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("vdrig_e2e_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  const test::TempDir dir_{"e2e"};
 };
 
 TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {

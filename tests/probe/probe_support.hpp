@@ -1,4 +1,5 @@
-// Helpers shared by the probe tests: synthetic maps and the real probes in ../shared/data/probes.
+// Helpers shared by the probe tests: synthetic maps and the real probes in tests/data/probes (CC0,
+// tests/data/README.md).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -17,16 +18,16 @@ namespace vdrig::probe::testing {
 inline const char* const kRealProbes[] = {"courtyard", "interior", "studio"};
 
 inline std::filesystem::path real_probe_path(const std::string& name) {
-  return std::filesystem::path(VDRIG_SHARED_DATA_DIR) / "probes" / (name + ".exr");
+  return std::filesystem::path(VDRIG_TEST_DATA_DIR) / "probes" / (name + ".exr");
 }
 
-/// Loads a real probe; the test FAILS (not skips) when the shared data is missing, saying where it was expected.
+/// Loads a real probe; the test FAILS (not skips) when the file is missing, saying where it was expected.
 inline ::testing::AssertionResult load_real_probe(const std::string& name, Probe* out, int width = 0) {
   const auto path = real_probe_path(name);
   if (!std::filesystem::exists(path))
     return ::testing::AssertionFailure() << "real light probe " << path
-                                         << " is missing: the shared data folder (VDRIG_SHARED_DATA_DIR = "
-                                         << VDRIG_SHARED_DATA_DIR << ") must hold probes/" << name << ".exr";
+                                         << " is missing: the test data folder (VDRIG_TEST_DATA_DIR = "
+                                         << VDRIG_TEST_DATA_DIR << ") must hold probes/" << name << ".exr";
   LoadOptions options;
   options.width = width;
   auto p = load_probe(path, options);

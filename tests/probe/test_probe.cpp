@@ -8,6 +8,7 @@
 
 #include "probe_support.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::probe {
 namespace {
@@ -15,12 +16,6 @@ namespace {
 namespace fs = std::filesystem;
 using testing::load_real_probe;
 using testing::synthetic_probe;
-
-fs::path temp_dir() {
-  const fs::path d = fs::temp_directory_path() / ("vdrig_probe_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
 
 ExrImage rgb_exr(int W, int H, const std::function<Rgb(int, int)>& f) {
   ExrImage im;
@@ -74,7 +69,7 @@ TEST(Probe, BruteForceIrradianceMatchesClosedForms) {
 }
 
 TEST(Probe, LoadErrorsAreValues) {
-  const fs::path dir = temp_dir();
+  const test::TempDir dir("probe");
   auto missing = load_probe(dir / "nope.exr");
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
@@ -102,14 +97,13 @@ TEST(Probe, LoadErrorsAreValues) {
   auto bad_width = load_probe(dir / "square.exr", odd);
   ASSERT_FALSE(bad_width);
   EXPECT_EQ(bad_width.error().code, ErrorCode::kInvalidArgument);
-  fs::remove_all(dir);
 }
 
 TEST(Probe, PanoramaFilesAreMirroredIntoTheDesignNotesLayout) {
   // A file in Blender's equirectangular layout (u = 0.5 - atan2(y, x) / 2 pi, row 0 up) storing each pixel's own
-  // direction: after loading, every pixel must hold the design notes' direction of its new column.
+  // direction: after loading, every pixel must hold vdrig's direction of its new column.
   const int W = 64, H = 32;
-  const fs::path dir = temp_dir();
+  const test::TempDir dir("probe");
   ASSERT_TRUE(write_exr(dir / "pano.exr", rgb_exr(W, H, [&](int c, int j) {
                           const double u = (c + 0.5) / W, elevation = kPi / 2 - kPi * (j + 0.5) / H;
                           const double azimuth = 2 * kPi * (0.5 - u);  // Blender: atan2(y, x) = 2 pi (0.5 - u)
@@ -124,13 +118,12 @@ TEST(Probe, PanoramaFilesAreMirroredIntoTheDesignNotesLayout) {
     for (int i = 0; i < W; ++i)
       worst = std::max(worst, (p->pixel(i, j) - latlong_direction(i, j, W, H) - Rgb::Ones()).norm());
   EXPECT_LT(worst, 1e-6);
-  // The same file read as already in the design notes' layout is not mirrored.
+  // The same file read as already in vdrig's layout is not mirrored.
   LoadOptions as_is;
   as_is.azimuth = FileAzimuth::kDesignNotes;
   auto q = load_probe(dir / "pano.exr", as_is);
   ASSERT_TRUE(q);
   EXPECT_GT((q->pixel(0, 16) - latlong_direction(0, 16, W, H) - Rgb::Ones()).norm(), 0.5);
-  fs::remove_all(dir);
 }
 
 TEST(Probe, SaveLoadRoundTripKeepsPoseAndDepth) {
@@ -139,7 +132,7 @@ TEST(Probe, SaveLoadRoundTripKeepsPoseAndDepth) {
   p.rotation = Eigen::AngleAxisd(0.3, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
   p.depth_mm = cv::Mat(16, 32, CV_32FC1);
   cv::randu(p.depth_mm, 100, 5000);
-  const fs::path dir = temp_dir();
+  const test::TempDir dir("probe");
   ASSERT_TRUE(save_probe(dir / "p.exr", p));
   LoadOptions o;  // kPanorama: must be ignored for our own files
   auto q = load_probe(dir / "p.exr", o);
@@ -148,7 +141,6 @@ TEST(Probe, SaveLoadRoundTripKeepsPoseAndDepth) {
   EXPECT_EQ(cv::norm(p.depth_mm, q->depth_mm, cv::NORM_INF), 0.0);
   EXPECT_LT((p.position_mm - q->position_mm).norm(), 1e-9);
   EXPECT_LT((p.rotation - q->rotation).norm(), 1e-12);
-  fs::remove_all(dir);
 }
 
 TEST(Probe, ResamplingKeepsPowerAndIrradiance) {

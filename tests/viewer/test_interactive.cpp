@@ -3,7 +3,6 @@
 // a scripted drag must change the view (to the expected neighbour), and the gamma keys the brightness.
 // Needs an X display with OpenGL 3.3 (xvfb-run in CI); skipped with the reason otherwise.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -12,6 +11,7 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/interactive.hpp"
 
 namespace vdrig::viewer {
@@ -54,14 +54,11 @@ std::vector<ViewPose> captured_views() {
 class Interactive : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) / ("vdrig_interactive_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
     options_.camera = default_pinhole(kW, kH, kWidth, kHeight, kDistance);
     options_.captured_views = captured_views();
     options_.distance_mm = kDistance;
     options_.max_frames = 3;
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   /// Runs the loop; skips the test without a display.
   ViewerResult run(const ViewerOptions& o) {
@@ -100,7 +97,7 @@ class Interactive : public ::testing::Test {
 
   fitting::ParameterMap map_ = make_map();
   ViewerOptions options_;
-  fs::path dir_;
+  const test::TempDir dir_{"interactive"};
   std::string skipped_;
 };
 

@@ -11,7 +11,7 @@
 //                  "excluded": false, "markers_px": [[u, v] x4] }            // an ok view
 //                { "index": 1, "ok": false, "excluded": true, "error": "..." } ],   // detection failed
 //     "kinematics": { "camera_distance_mm": .., "surface_offset_mm": [3], ... } }   // optional (kinematic.hpp)
-// The pose convention is the design notes': p_cam = R(rvec) p_surface + tvec.
+// The pose convention is vdrig's (docs/conventions.md): p_cam = R(rvec) p_surface + tvec.
 #pragma once
 
 #include <filesystem>

@@ -2,7 +2,7 @@
 // realise them on a given rig.
 //
 // Directions are unit vectors in the surface frame (z = the surface normal); spherical angles are `azimuth` (from +x
-// toward +y) and `zenith` (from +z), as fixed in ../shared/design-notes.md. Degrees appear only in the spec text.
+// toward +y) and `zenith` (from +z), as fixed in docs/conventions.md. Degrees appear only in the spec text.
 //
 // Spec grammar (no spaces; see docs/sampling.md for the counts and the reasoning):
 //   spec       := component ('+' component)* ['@' MAX_ZENITH_DEG]

@@ -1,4 +1,4 @@
-// Frames and direction conventions shared by every module (../shared/design-notes.md):
+// Frames and direction conventions shared by every module (docs/conventions.md):
 //  - surface frame: origin at the surface centre, x along its width, y along its height, z the outward normal, mm;
 //  - directions are unit vectors; spherical angles are `azimuth` (from +x toward +y, [0, 2pi)) and
 //    `zenith` (from +z, [0, pi]); never bare theta/phi in interfaces;

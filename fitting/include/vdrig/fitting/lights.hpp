@@ -1,7 +1,7 @@
 // Point lights estimated from the per-texel Phong lobes of a whole map.
 //
 // Why: the rig's lights are fixed to the platform and the surface is planar (surface frame, mm, z = 0, geometric
-// normal +z; ../shared/design-notes.md), so the mirror direction r of every texel's highlight comes from the same few
+// normal +z; docs/conventions.md), so the mirror direction r of every texel's highlight comes from the same few
 // point lights: r(p) = mirror of normalize(L - p) about +z. From sparse view sets (e.g. 17 icosahedron directions,
 // ~30 deg apart) a glossy texel's free Phong fit trades r against Ks and m at no cost in residual; the lights,
 // estimated from the many texels whose lobes ARE well determined, give each texel its r, and fit_phong with

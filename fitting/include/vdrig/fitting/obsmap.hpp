@@ -1,7 +1,7 @@
 // ObservationMap: per texel of an S x T grid over the surface, every observed RGB radiance and the direction it was
 // seen from (surface frame, unit, toward the camera), with a flag per observation.
 //
-// Building it (build_observation_map): texel centre (design notes' formula) -> surface point -> camera via the view's
+// Building it (build_observation_map): texel centre (texel_centre_mm) -> surface point -> camera via the view's
 // pose and intrinsics (distortion included) -> bilinear radiance sample of the view's HDR image -> direction to the
 // camera centre. An observation is kept with a reason flag when it cannot be used.
 #pragma once

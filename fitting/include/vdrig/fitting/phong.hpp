@@ -1,6 +1,6 @@
 // Modified Phong with K lobes, per colour channel c:   I_c(v) = Kd_c + sum_k Ks_kc max(0, v . r_k)^m_k
-// With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared by all lobes (as the
-// source method) or one per lobe. phong_model.hpp makes it a ReflectanceModel of parameter maps.
+// (docs/conventions.md). With one lobe: 10 stored values (Kd RGB, Ks RGB, r xyz, m; 9 free, r being unit). m is shared
+// by all lobes (as the source method) or one per lobe. phong_model.hpp makes it a ReflectanceModel of parameter maps.
 //
 // Fitting (fit_phong): non-linear least squares, all observations of a texel at once (3 residuals each), analytic
 // derivatives, the bounded Levenberg-Marquardt of bounded_lm.hpp (private to fitting/). Parameters: Kd, Ks >= 0

@@ -2,7 +2,7 @@
 // lat-long map is split recursively into 2^k regions of (nearly) equal energy and each region becomes one
 // directional light carrying the region's whole power, placed at its energy centroid.
 //
-// Energy of a pixel = luminance(L) x the pixel's solid angle (design notes' row solid angle), so that the polar
+// Energy of a pixel = luminance(L) x the pixel's solid angle (row solid angle, docs/conventions.md), so that the polar
 // rows, over-represented in a lat-long map, weigh what they subtend. A region is cut across its longer side,
 // the width measured as columns x sin(zenith of the region's middle row) (= cos latitude; rows and columns span
 // the same angle when W = 2 H), at the pixel boundary that best halves its energy (summed-area table, O(1) per

@@ -1,6 +1,6 @@
 // Light probes: HDR radiance seen from one point in every direction, as a latitude-longitude map (docs/probe.md).
 //
-// Conventions (../shared/design-notes.md): column i of a W x H map looks at azimuth 2 pi (i + 0.5) / W (from +x
+// Conventions (docs/conventions.md): column i of a W x H map looks at azimuth 2 pi (i + 0.5) / W (from +x
 // toward +y), row j at zenith pi (j + 0.5) / H (row 0 looks along +z); row j's pixels subtend
 // latlong_pixel_solid_angle(j, W, H) sr each. Directions here are in the probe's own frame unless a name says world.
 #pragma once
@@ -21,7 +21,7 @@ using Rgb = Eigen::Vector3d;
 /// Relative luminance of linear RGB (Rec. 709 / sRGB primaries), the "energy" of the median cut.
 inline double luminance(const Rgb& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
 
-/// `Probe`: one light probe. A lat-long HDR radiance map in the design notes' layout (see the file comment), the
+/// `Probe`: one light probe. A lat-long HDR radiance map in vdrig's layout (see the file comment), the
 /// probe's pose in the world, and optionally the distance to the scene behind every pixel.
 ///  - radiance: CV_32FC3, H x W with W = 2 H, channels in R, G, B order (NOT OpenCV's BGR), linear, >= 0.
 ///  - position_mm: centre of the probe in the world (mm); rotation: probe frame -> world, d_world = R d_probe.
@@ -53,7 +53,7 @@ enum class FileAzimuth {
   /// to u = 0.5 - atan2(d.y, d.x) / 2 pi, so the centre column looks along +x. Loading mirrors the columns so the
   /// probe frame is Blender's world frame: vdrig column i = (W / 2 - 1 - c) mod W for file column c.
   kPanorama,
-  /// Already in the design notes' layout (column i at azimuth 2 pi (i + 0.5) / W), e.g. written by save_probe.
+  /// Already in vdrig's layout (column i at azimuth 2 pi (i + 0.5) / W), e.g. written by save_probe.
   kDesignNotes,
 };
 
@@ -64,13 +64,13 @@ struct LoadOptions {
 };
 
 /// Loads an equirectangular OpenEXR light probe with channels R, G, B (any pixel type), row 0 looking up. Files
-/// written by save_probe (attribute "vdrig.probe.version") are read in the design notes' layout with their pose and
+/// written by save_probe (attribute "vdrig.probe.version") are read in vdrig's layout with their pose and
 /// depth whatever options.azimuth says. Errors: kNotFound (missing file), kCorrupt (unreadable EXR, missing R/G/B,
 /// non-finite pixels), kInvalidArgument (not 2:1, or options.width odd or < 2 but not 0). Negative values (DWA
 /// compression ringing around zero) are clamped to 0 and counted in the log.
 Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options = {});
 
-/// Writes the probe as float OpenEXR in the design notes' layout: channels R, G, B (+ "Z" = depth in mm when
+/// Writes the probe as float OpenEXR in vdrig's layout: channels R, G, B (+ "Z" = depth in mm when
 /// present) and attributes vdrig.probe.version = 1, vdrig.probe.layout = "design-notes", position and rotation.
 Status save_probe(const std::filesystem::path& path, const Probe& probe);
 

@@ -36,7 +36,7 @@ struct SphereRenderOptions {
 /// a = (2 (x + 0.5) / N - 1), b = -(2 (y + 0.5) / N - 1), right = up x view_dir. Precondition: options.is_valid().
 cv::Mat render_diffuse_sphere(const Probe& probe, const SphereRenderOptions& options);
 
-/// Display tone mapping of the design notes, y = 1 - exp(-gamma x) per channel, then sRGB encoding, 8-bit:
+/// Display tone mapping (docs/conventions.md), y = 1 - exp(-gamma x) per channel, then sRGB encoding, 8-bit:
 /// R, G, B float in, BGR CV_8UC3 out (ready for write_png).
 cv::Mat tone_map_srgb8(const cv::Mat& rgb, double gamma);
 

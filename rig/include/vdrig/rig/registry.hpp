@@ -1,6 +1,6 @@
-// Backends are created by name from a JSON rig config through a registry, after libcamera's
-// PipelineHandler factories. Registration is explicit (register_hardware_backends, sim::register_backends):
-// static registrar objects would vanish when linking static libraries.
+// Backends are created by name from a JSON rig config through a registry. Registration is explicit
+// (register_hardware_backends, sim::register_backends): static registrar objects would vanish when linking static
+// libraries. docs/rig-backends.md says how to add a backend.
 //
 // Rig config (JSON; angles in degrees, lengths in mm, times in seconds):
 //   { "stage":  { "backend": "modbus-tcp", ... backend settings ... },

@@ -8,7 +8,7 @@
 //     E = I cos(theta_i) / d^2            (irradiance, d = |P - p|, cos(theta_i) = n . (P - p) / d)
 //     L(v) = E (kd + ks max(0, v . r)^m)  (r the mirror of the light direction about n)
 // so a Lambertian patch has L = kd I cos(theta_i) / d^2 in every direction, and under one point light a texel is
-// exactly the design notes' modified Phong I(v) = Kd + Ks (v . r)^m with Kd = E kd, Ks = E ks. An area light is a
+// exactly the modified Phong I(v) = Kd + Ks (v . r)^m with Kd = E kd, Ks = E ks. An area light is a
 // fixed stratified grid of point lights (deterministic). Ambient adds kd * ambient. Radiance is zero below the
 // geometric horizon (v.z <= 0) and outside the surface.
 // Colours are RGB (index 0 = R). Radiance is relative: a light of intensity I at distance d lights a white

@@ -1,1 +1,0 @@
-set(fitting_test_deps vdrig::sim vdrig::rig vdrig::capture)
