@@ -72,7 +72,7 @@ Status run_demo(const DemoArgs& a) {
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.
-  const fs::path map_path = layout.parameter_map_file(fit_options.model.to_string());
+  const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
   fs::create_directories(map_path.parent_path(), ec);
   VDRIG_TRY(map->write(map_path));
 

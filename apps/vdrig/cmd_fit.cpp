@@ -94,7 +94,7 @@ Status run_fit(const FitArgs& a) {
   std::printf("\n");
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
-  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(a.model) : fs::path(a.out);
+  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
   std::error_code ec;
   if (out.has_parent_path()) fs::create_directories(out.parent_path(), ec);
   VDRIG_TRY(map->write(out));
