@@ -159,6 +159,8 @@ TEST(Settings, CollectsEveryProblemAndAcceptsTheEnvelope) {
   EXPECT_EQ(request.reasons(), "unknown field \"extra\"");
   Settings not_object(nlohmann::json::array(), "sim");
   EXPECT_FALSE(not_object.is_valid(nullptr));
+}
+
 TEST(FileIo, ErrnoMapsToNoSpaceOnlyForAFullDiskOrQuota) {
   EXPECT_EQ(error_code_from_errno(ENOSPC), ErrorCode::kNoSpace);
   EXPECT_EQ(error_code_from_errno(EDQUOT), ErrorCode::kNoSpace);
