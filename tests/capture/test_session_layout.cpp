@@ -40,7 +40,7 @@ TEST(SessionLayoutDeathTest, AModelSpecMustBeAPlainFileName) {
 }
 
 TEST(SessionLayout, SessionWritesWhereTheLayoutSays) {
-  testing::ScopedTempDir dir("layout");
+  const vdrig::test::TempDir dir("layout");
   Manifest manifest;
   manifest.scheme = "test";
   manifest.bracket = "fixed:0.1";
