@@ -196,6 +196,10 @@ TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
   testing::write_text(SessionLayout(sessions / "bad_journal").journal_file(), "{\"type\":\"frame\"\n");
   ASSERT_TRUE(Session::create(sessions / "bad_line", manifest.value()));
   testing::write_text(SessionLayout(sessions / "bad_line").journal_file(), "garbage\n");
+  // A wrong-typed field: it once threw out of Session::open and failed the whole listing.
+  ASSERT_TRUE(Session::create(sessions / "bad_type", manifest.value()));
+  testing::write_text(SessionLayout(sessions / "bad_type").journal_file(),
+                      "{\"type\":\"view_complete\",\"view\":[0]}\n");
 
   Running d(config_in(root.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
@@ -210,6 +214,7 @@ TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
   ASSERT_TRUE(by_name.count("good")) << reply.dump();
   EXPECT_FALSE(by_name["good"].contains("damaged"));
   EXPECT_EQ(by_name["good"].value("views_total", 0), static_cast<int>(manifest->views.size()));
+  EXPECT_TRUE(by_name.count("bad_type")) << reply.dump();  // listed, damaged or not (its parser may skip the line)
   for (const char* bad : {"bad_manifest", "bad_line"}) {
     ASSERT_TRUE(by_name.count(bad)) << bad << " not listed: " << reply.dump();
     EXPECT_TRUE(by_name[bad].value("damaged", false)) << by_name[bad].dump();
