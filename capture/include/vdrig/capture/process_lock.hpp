@@ -3,9 +3,9 @@
 // crash), so a dead holder never leaves a stale lock; the file itself stays and is simply locked again. The holder
 // writes its PID into the file after locking, and a refused process names it: "session S is in use by PID n".
 //
-// Two locks guard a capture (docs/capture.md, "Locks"):
+// Two locks guard a capture (docs/protocol.md, "Locks"):
 //   - the session: SessionLayout::lock_file(), taken by whoever captures into the session (run_capture takes it if
-//     the caller has not; `vdrig capture --resume` and vdrigd take it before replaying the journal);
+//     the caller holds it already; `vdrig capture --resume` and vdrigd take it before replaying the journal);
 //   - the rig: <runtime dir>/rig-<name>.lock, taken by whoever drives the rig (vdrigd while it holds the rig, the
 //     CLI for its capture). rig_lock_name() says which rigs are locked and by which name.
 // Locks of one file conflict also within one process (every acquire opens the file anew).
