@@ -4,8 +4,8 @@
 // writes its PID into the file after locking, and a refused process names it: "session S is in use by PID n".
 //
 // Two locks guard a capture (docs/protocol.md, "Locks"):
-//   - the session: SessionLayout::lock_file(), taken by whoever captures into the session (run_capture takes it if
-//     the caller holds it already; `vdrig capture --resume` and vdrigd take it before replaying the journal);
+//   - the session: SessionLayout::lock_file(), taken by whoever captures into the session (run_capture takes it for
+//     the run unless the caller holds it; `vdrig capture --resume` and vdrigd take it before replaying the journal);
 //   - the rig: <runtime dir>/rig-<name>.lock, taken by whoever drives the rig (vdrigd while it holds the rig, the
 //     CLI for its capture). rig_lock_name() says which rigs are locked and by which name.
 // Locks of one file conflict also within one process (every acquire opens the file anew).
