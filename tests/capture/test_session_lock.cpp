@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <functional>
 #include <thread>
 
 #include "test_support.hpp"
@@ -36,6 +37,29 @@ int create_session(const fs::path& dir, const json& rig_config) {
   return static_cast<int>(manifest->views.size());
 }
 
+/// Forks a child that holds the lock `take` returns until it is killed; its PID (-1 if it could not take it).
+pid_t child_holding(const std::function<bool()>& take) {
+  int ready[2];
+  if (::pipe(ready) != 0) return -1;
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const char b = take() ? 1 : 0;
+    [[maybe_unused]] const ssize_t n = ::write(ready[1], &b, 1);
+    ::pause();
+    ::_exit(0);
+  }
+  char b = 0;
+  const bool ok = ::read(ready[0], &b, 1) == 1 && b == 1;
+  ::close(ready[0]);
+  ::close(ready[1]);
+  if (!ok && child > 0) {
+    ::kill(child, SIGKILL);
+    ::waitpid(child, nullptr, 0);
+    return -1;
+  }
+  return child;
+}
+
 std::string in_use_by_us() { return "in use by PID " + std::to_string(::getpid()); }
 
 TEST(ProcessLock, SecondHolderIsRefusedWithThePidAndAKilledHolderLeavesNoStaleLock) {
@@ -53,26 +77,18 @@ TEST(ProcessLock, SecondHolderIsRefusedWithThePidAndAKilledHolderLeavesNoStaleLo
   EXPECT_TRUE(ProcessLock::acquire(file, "thing X"));
 
   // A child takes the lock and is SIGKILLed: the kernel releases it.
-  int ready[2];
-  ASSERT_EQ(::pipe(ready), 0);
-  const pid_t child = ::fork();
-  if (child == 0) {
+  std::optional<ProcessLock> in_child;
+  const pid_t child = child_holding([&] {
     auto held = ProcessLock::acquire(file, "thing X");
-    const char b = held ? 1 : 0;
-    [[maybe_unused]] const ssize_t n = ::write(ready[1], &b, 1);
-    ::pause();
-    ::_exit(0);
-  }
-  char b = 0;
-  ASSERT_EQ(::read(ready[0], &b, 1), 1);
-  ASSERT_EQ(b, 1);
+    if (held) in_child = std::move(held.value());
+    return in_child.has_value();
+  });
+  ASSERT_GT(child, 0);
   auto refused = ProcessLock::acquire(file, "thing X");
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().message, "thing X is in use by PID " + std::to_string(child));
   ::kill(child, SIGKILL);
   ::waitpid(child, nullptr, 0);
-  ::close(ready[0]);
-  ::close(ready[1]);
   EXPECT_TRUE(ProcessLock::acquire(file, "thing X"));
 }
 
@@ -95,21 +111,13 @@ TEST(SessionLock, CliResumeIsRefusedWhileAnotherProcessCapturesAndRunsOnceTheHol
     EXPECT_EQ(s->completed_view_count(), 0) << "the refused process captured views";
   }
   // A holder that dies by SIGKILL leaves nothing stale.
-  int ready[2];
-  ASSERT_EQ(::pipe(ready), 0);
-  const pid_t child = ::fork();
-  if (child == 0) {
+  std::optional<ProcessLock> in_child;
+  const pid_t child = child_holding([&] {
     auto held = lock_session(session_dir);
-    const char b = held ? 1 : 0;
-    [[maybe_unused]] const ssize_t n = ::write(ready[1], &b, 1);
-    ::pause();
-    ::_exit(0);
-  }
-  char b = 0;
-  ASSERT_EQ(::read(ready[0], &b, 1), 1);
-  ::close(ready[0]);
-  ::close(ready[1]);
-  ASSERT_EQ(b, 1) << "the child could not take the lock";
+    if (held) in_child = std::move(held.value());
+    return in_child.has_value();
+  });
+  ASSERT_GT(child, 0) << "the child could not take the lock";
   {
     const auto r = testing::run_process(resume);
     EXPECT_NE(r.exit_code, 0);

@@ -30,6 +30,20 @@ DaemonConfig config_in(const fs::path& root) {
   return config;
 }
 
+/// A plan on the small simulated rig (no session written).
+Manifest small_plan(const std::string& scheme) {
+  auto rig = testing::make_sim_rig(testing::small_sim_config());
+  EXPECT_TRUE(rig) << rig.error().describe();
+  PlanRequest plan;
+  plan.rig_config = testing::small_sim_config();
+  plan.scheme = scheme;
+  plan.bracket = "fixed:0.01";
+  plan.stage = rig->stage->spec();
+  auto manifest = plan_manifest(plan);
+  EXPECT_TRUE(manifest) << manifest.error().describe();
+  return manifest.value();
+}
+
 /// A daemon serving on its own thread for the scope.
 class Running {
  public:
@@ -129,17 +143,9 @@ TEST(VdrigdStart, AnInvalidRigConfigExits2WithTheReason) {
 TEST(VdrigdFairness, OnePipeliningClientDoesNotHoldUpAnother) {
   testing::ScopedTempDir root("fair");
   // Sessions to list make each list-sessions take a while.
-  auto rig = testing::make_sim_rig(testing::small_sim_config());
-  ASSERT_TRUE(rig);
-  PlanRequest plan;
-  plan.rig_config = testing::small_sim_config();
-  plan.scheme = "latlong:4";
-  plan.bracket = "fixed:0.01";
-  plan.stage = rig->stage->spec();
-  auto manifest = plan_manifest(plan);
-  ASSERT_TRUE(manifest);
+  const Manifest manifest = small_plan("latlong:4");
   for (int i = 0; i < 10; ++i)
-    ASSERT_TRUE(Session::create(root.path() / "sessions" / ("s" + std::to_string(i)), manifest.value()));
+    ASSERT_TRUE(Session::create(root.path() / "sessions" / ("s" + std::to_string(i)), manifest));
 
   Running d(config_in(root.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
@@ -179,25 +185,17 @@ TEST(VdrigdFairness, OnePipeliningClientDoesNotHoldUpAnother) {
 
 TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
   testing::ScopedTempDir root("damaged");
-  auto rig = testing::make_sim_rig(testing::small_sim_config());
-  ASSERT_TRUE(rig);
-  PlanRequest plan;
-  plan.rig_config = testing::small_sim_config();
-  plan.scheme = "latlong:2";
-  plan.bracket = "fixed:0.01";
-  plan.stage = rig->stage->spec();
-  auto manifest = plan_manifest(plan);
-  ASSERT_TRUE(manifest);
+  const Manifest manifest = small_plan("latlong:2");
   const fs::path sessions = root.path() / "sessions";
-  ASSERT_TRUE(Session::create(sessions / "good", manifest.value()));
-  ASSERT_TRUE(Session::create(sessions / "bad_manifest", manifest.value()));
+  ASSERT_TRUE(Session::create(sessions / "good", manifest));
+  ASSERT_TRUE(Session::create(sessions / "bad_manifest", manifest));
   testing::write_text(SessionLayout(sessions / "bad_manifest").manifest_file(), "{ not json");
-  ASSERT_TRUE(Session::create(sessions / "bad_journal", manifest.value()));
+  ASSERT_TRUE(Session::create(sessions / "bad_journal", manifest));
   testing::write_text(SessionLayout(sessions / "bad_journal").journal_file(), "{\"type\":\"frame\"\n");
-  ASSERT_TRUE(Session::create(sessions / "bad_line", manifest.value()));
+  ASSERT_TRUE(Session::create(sessions / "bad_line", manifest));
   testing::write_text(SessionLayout(sessions / "bad_line").journal_file(), "garbage\n");
   // A wrong-typed field: it once threw out of Session::open and failed the whole listing.
-  ASSERT_TRUE(Session::create(sessions / "bad_type", manifest.value()));
+  ASSERT_TRUE(Session::create(sessions / "bad_type", manifest));
   testing::write_text(SessionLayout(sessions / "bad_type").journal_file(),
                       "{\"type\":\"view_complete\",\"view\":[0]}\n");
 
@@ -213,7 +211,7 @@ TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
   for (const auto& s : reply.at("sessions")) by_name[s.value("session", "")] = s;
   ASSERT_TRUE(by_name.count("good")) << reply.dump();
   EXPECT_FALSE(by_name["good"].contains("damaged"));
-  EXPECT_EQ(by_name["good"].value("views_total", 0), static_cast<int>(manifest->views.size()));
+  EXPECT_EQ(by_name["good"].value("views_total", 0), static_cast<int>(manifest.views.size()));
   EXPECT_TRUE(by_name.count("bad_type")) << reply.dump();  // listed, damaged or not (its parser may skip the line)
   for (const char* bad : {"bad_manifest", "bad_line"}) {
     ASSERT_TRUE(by_name.count(bad)) << bad << " not listed: " << reply.dump();
