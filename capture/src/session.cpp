@@ -151,6 +151,7 @@ Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_empty(dir, ec))
     return make_error(ErrorCode::kInvalidArgument, "session folder " + dir.string() + " exists and is not empty");
+  if (manifest.views.empty()) return make_error(ErrorCode::kInvalidArgument, "a session needs at least one view");
   const SessionLayout layout(dir);
   fs::create_directories(layout.frames_dir(), ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
@@ -207,9 +208,10 @@ Result<Session> Session::open(const fs::path& dir) {
       return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + " is not valid JSON");
     const std::string type = j.value("type", "");
     if (type == "frame" || type == "view_complete") {
-      if (view_out_of_range(j, s.manifest_.views.size())) {
+      // A completion line must name its view (the old default -1 counted a view that does not exist).
+      if (view_out_of_range(j, s.manifest_.views.size()) || (type == "view_complete" && !j.contains("view"))) {
         log::get("capture")->warn("session {}: journal line {} names view {}, outside the manifest's {} views: ignored",
-                                  dir.string(), line_no, j["view"].dump(), s.manifest_.views.size());
+                                  dir.string(), line_no, j.value("view", json()).dump(), s.manifest_.views.size());
         continue;
       }
     }

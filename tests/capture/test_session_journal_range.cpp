@@ -48,13 +48,14 @@ TEST(SessionJournalRange, ViewsOutsideTheManifestAreIgnoredNotCounted) {
     lines.push_back(frame_line(bad));
     lines.push_back(std::string(R"({"type":"view_complete","view":)") + bad + R"(,"frames":1})");
   }
+  lines.push_back(R"({"type":"view_complete","frames":1})");  // names no view
   lines.push_back(frame_line("1"));
   lines.push_back(R"({"type":"view_complete","view":1,"frames":1})");
   append_lines(journal, lines);
 
   auto s = Session::open(dir.path());
   ASSERT_TRUE(s) << s.error().describe();
-  EXPECT_EQ(s->completed_view_count(), 1);  // only view 1: the 7 out-of-range completions are not views
+  EXPECT_EQ(s->completed_view_count(), 1);  // only view 1: the 8 other completions name no view of the manifest
   EXPECT_TRUE(s->view_complete(1));
   EXPECT_FALSE(s->view_complete(-1));
   EXPECT_FALSE(s->view_complete(99999));
@@ -87,6 +88,11 @@ TEST(SessionJournalRange, AManifestWithoutViewsIsRefusedAtLoad) {
 
   auto m = Manifest::from_json(j);
   EXPECT_FALSE(m);
+  // Nor is one created.
+  testing::ScopedTempDir other("journal_noviews_create");
+  Manifest empty = three_views();
+  empty.views.clear();
+  EXPECT_FALSE(Session::create(other.path(), empty));
 }
 
 }  // namespace

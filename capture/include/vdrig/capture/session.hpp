@@ -84,13 +84,13 @@ struct FrameRecord {
 
 class Session {
  public:
-  /// Creates the folder (must not exist or be empty) and writes the manifest.
+  /// Creates the folder (must not exist or be empty) and writes the manifest (which must plan at least one view).
   static Result<Session> create(const std::filesystem::path& dir, Manifest manifest);
   /// Opens an existing session; reads the manifest and replays the journal. A torn last journal line (a crash
   /// mid-append) is dropped with a warning and cut off the file (so the next append starts a clean line); any
   /// other malformed line is kCorrupt.
-  /// Journal lines naming a view outside the manifest (a negative, too large or non-integer "view") are ignored with
-  /// a warning that says so. A manifest without views is kCorrupt.
+  /// Journal lines naming a view outside the manifest (a negative, too large or non-integer "view", or a completion
+  /// line without one) are ignored with a warning that says so. A manifest without views is kCorrupt.
   static Result<Session> open(const std::filesystem::path& dir);
   /// open() for capturing: takes the session's lock (lock()) before replaying the journal, so no other process
   /// appends while it is read. The lock is held as long as this Session (or a copy) lives.
