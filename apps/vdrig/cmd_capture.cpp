@@ -3,8 +3,11 @@
 #include <fstream>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
+#include "vdrig/capture/process_lock.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -21,6 +24,7 @@ struct CaptureArgs {
   std::string bracket = "auto";
   std::string out;
   std::string resume;
+  std::string runtime_dir = capture::default_runtime_dir().string();  // where rig locks live (as vdrigd's)
   double reserve_mb = 256;
 };
 
@@ -29,8 +33,18 @@ Status run(const CaptureArgs& a) {
   capture::CaptureOptions options;
   options.disk_reserve_bytes = static_cast<uint64_t>(std::max(0.0, a.reserve_mb) * 1024 * 1024);
   std::optional<capture::Session> session;
+  // One process drives a rig (process_lock.hpp: rig_lock_name); held until the capture returns, taken before the
+  // rig is built or a session folder is made for it.
+  std::optional<capture::ProcessLock> rig_lock;
+  auto lock_rig = [&](const nlohmann::json& rig_config) -> Status {
+    auto held = capture::lock_rig(rig_config, a.runtime_dir);
+    if (!held) return held.error();
+    rig_lock = std::move(held.value());
+    return Status::ok();
+  };
   if (!a.resume.empty()) {
-    auto s = capture::Session::open(a.resume);
+    // Locked before the journal is read: another process capturing into it is refused with its PID.
+    auto s = capture::Session::open_for_capture(a.resume);
     if (!s) return s.error();
     session = std::move(s.value());
     std::printf("resuming %s: %d/%zu views complete\n", a.resume.c_str(), session->completed_view_count(),
@@ -45,6 +59,7 @@ Status run(const CaptureArgs& a) {
       rc = nlohmann::json::parse(in, nullptr, false);
       if (!in || rc.is_discarded()) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config " + a.rig);
     }
+    VDRIG_TRY(lock_rig(rc));
     auto rig = registry.make_rig(rc);
     if (!rig) return rig.error();
     capture::PlanRequest plan;
@@ -70,15 +85,17 @@ Status run(const CaptureArgs& a) {
   auto bracket = capture::parse_bracket(session->manifest().bracket);
   if (!bracket) return bracket.error();
   options.bracket = bracket.value();
-  options.on_progress = [](const capture::CaptureProgress& p) {
-    std::printf("\r  views %d/%d  view %d frame %d (%.4g s)  ETA %.0f s   ", p.views_done, p.views_total, p.view,
-                p.bracket_index, p.exposure_s, p.eta_s);
-    std::fflush(stdout);
+  ProgressLine progress;
+  options.on_progress = [&progress](const capture::CaptureProgress& p) {
+    progress.update(p.views_done, p.views_total, "  views %d/%d  view %d frame %d (%.4g s)  ETA %.0f s", p.views_done,
+                    p.views_total, p.view, p.bracket_index, p.exposure_s, p.eta_s);
   };
+  VDRIG_TRY(session->lock());
+  if (!a.resume.empty()) VDRIG_TRY(lock_rig(session->manifest().rig_config));
   auto rig = registry.make_rig(session->manifest().rig_config);
   if (!rig) return rig.error();
   const Status s = capture::run_session(rig.value(), session.value(), options);
-  std::printf("\n");
+  progress.finish();
   if (!s && (s.error().code == ErrorCode::kNoSpace || s.error().code == ErrorCode::kCancelled))
     std::printf("stopped; nothing is lost: vdrig capture --resume %s\n", session->dir().c_str());
   return s;
@@ -94,6 +111,8 @@ CommandRegistrar reg([](CLI::App& root) {
   cmd->add_option("--out", a->out, "new session folder");
   cmd->add_option("--resume", a->resume, "session folder to resume (rig config from its manifest)");
   cmd->add_option("--reserve-mb", a->reserve_mb, "free disk space to keep, MiB")->capture_default_str();
+  cmd->add_option("--runtime-dir", a->runtime_dir, "folder of the rig locks (vdrigd's runtime dir)")
+      ->capture_default_str();
   cmd->callback([a] { finish(run(*a)); });
 });
 

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -26,7 +27,10 @@ Status run_demo(const DemoArgs& a) {
   const fs::path out = fs::absolute(a.out);
   const fs::path session_dir = out / "session";
   std::error_code ec;
-  fs::remove_all(session_dir, ec);
+  // Never delete what vdrig did not create: an earlier demo's session may hold a user's files by now.
+  if (fs::exists(session_dir, ec) && !fs::is_empty(session_dir, ec))
+    return make_error(ErrorCode::kInvalidArgument,
+                      session_dir.string() + " is not empty: pick another --out or remove it yourself");
 
   std::printf("1/5 capture: scene %s, scheme %s -> %s\n", a.scene.c_str(), a.scheme.c_str(), session_dir.c_str());
   pipeline::CaptureRequest req;
@@ -34,12 +38,12 @@ Status run_demo(const DemoArgs& a) {
   req.rig_config = sim::sim_rig_config({{"scene", a.scene}});
   req.scheme = a.scheme;
   req.exposures_s = {1.0, 0.25, 0.0625};
-  req.on_view = [](int done, int total) {
-    std::printf("\r    views %d/%d", done, total);
-    std::fflush(stdout);
+  ProgressLine capture_progress;
+  req.on_view = [&capture_progress](int done, int total) {
+    capture_progress.update(done, total, "    views %d/%d", done, total);
   };
   auto session = pipeline::capture_session(req);
-  std::printf("\n");
+  capture_progress.finish();
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
 
@@ -63,12 +67,13 @@ Status run_demo(const DemoArgs& a) {
   std::printf("4/5 fit phong:1 per texel\n");
   fitting::MapFitOptions fit_options;
   fit_options.held_out = held_out;
-  fit_options.on_progress = [](const fitting::MapFitProgress& p) {
-    std::printf("\r    texels %d/%d, ETA %.0f s ", p.texels_done, p.texels_total, p.eta_s);
-    std::fflush(stdout);
+  ProgressLine fit_progress;
+  fit_options.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
+    fit_progress.update(p.texels_done, p.texels_total, "    texels %d/%d, ETA %.0f s", p.texels_done, p.texels_total,
+                        p.eta_s);
   };
   auto map = fitting::fit_parameter_map(obs.value(), fit_options);
-  std::printf("\n");
+  fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
@@ -68,12 +69,10 @@ Status run_fit(const FitArgs& a) {
     std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
                 options.held_out.size());
     pipeline::ObsMapBuildOptions build;
-    build.on_view = [](int done, int total) {
-      std::printf("\r  views %d/%d   ", done, total);
-      std::fflush(stdout);
-    };
+    ProgressLine progress;
+    build.on_view = [&progress](int done, int total) { progress.update(done, total, "  views %d/%d", done, total); };
     auto built = pipeline::session_obsmap_file(session.value(), res->first, res->second, build);
-    std::printf("\n");
+    progress.finish();
     if (!built) return built.error();
     obsmap_path = built.value();
   }
@@ -85,13 +84,14 @@ Status run_fit(const FitArgs& a) {
   std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s, obs->spec().texels_t);
 
   std::printf("fit %s\n", options.model->name().c_str());
-  options.on_progress = [](const fitting::MapFitProgress& p) {
-    std::printf("\r  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s   ", p.texels_done, p.texels_total,
-                100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s, p.eta_s);
-    std::fflush(stdout);
+  ProgressLine fit_progress;
+  options.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
+    fit_progress.update(p.texels_done, p.texels_total, "  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s",
+                        p.texels_done, p.texels_total, 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s,
+                        p.eta_s);
   };
   auto map = fitting::fit_parameter_map(obs.value(), options);
-  std::printf("\n");
+  fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
   const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
@@ -43,14 +44,12 @@ Status run_build(const BuildArgs& a) {
   if (!session) return session.error();
   pipeline::ObsMapBuildOptions options;
   options.file = file;
-  options.on_view = [](int done, int total) {
-    std::printf("\r  views %d/%d   ", done, total);
-    std::fflush(stdout);
-  };
+  ProgressLine progress;
+  options.on_view = [&progress](int done, int total) { progress.update(done, total, "  views %d/%d", done, total); };
   const std::filesystem::path out =
       a.out.empty() ? session->layout().obsmap_file(res->first, res->second) : std::filesystem::path(a.out);
   const Status built = pipeline::build_session_obsmap_file(session.value(), res->first, res->second, out, options);
-  std::printf("\n");
+  progress.finish();
   VDRIG_TRY(built);
   std::printf("wrote %s\n", out.c_str());
   return Status::ok();

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/capture/daemon.hpp"
 
 namespace vdrig::app {
@@ -59,20 +60,28 @@ class Client {
   /// Sends a request and returns its reply (events that arrive first are skipped).
   Result<json> request(const json& req) {
     const std::string line = req.dump() + "\n";
-    if (::send(fd_, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size()))
+    if (::send(fd_, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
+      // A daemon refusing this peer (its uid, too many clients) writes the reason and closes at once, possibly
+      // before this send: the reason is still there to read.
+      auto m = read_message();
+      if (m && !m->contains("event") && !m->value("ok", false)) return reply_error(m.value());
       return make_error(ErrorCode::kDisconnected, "send to daemon failed");
+    }
     while (true) {
       auto m = read_message();
       if (!m) return m;
       if (m->contains("event")) continue;
-      if (!m->value("ok", false))
-        return make_error(m->value("code", "") == "invalid_argument" ? ErrorCode::kInvalidArgument : ErrorCode::kDevice,
-                          m->value("error", std::string("request failed")));
+      if (!m->value("ok", false)) return reply_error(m.value());
       return m;
     }
   }
 
  private:
+  static Error reply_error(const json& reply) {
+    return make_error(reply.value("code", "") == "invalid_argument" ? ErrorCode::kInvalidArgument : ErrorCode::kDevice,
+                      reply.value("error", std::string("request failed")));
+  }
+
   int fd_ = -1;
   std::string buf_;
 };
@@ -88,17 +97,19 @@ void print_status(const json& s) {
 
 /// Live progress line until the session leaves "running".
 Status follow(Client& c) {
+  ProgressLine progress;
   while (true) {
     auto m = c.read_message();
     if (!m) return m.status();
     const json& ev = m.value();
     if (ev.value("event", "") == "progress") {
-      std::printf("\r  views %d/%d  bracket frame %d (%.4g s)  ETA %.0f s    ", ev.value("views_done", 0),
-                  ev.value("views_total", 0), ev.value("bracket_index", 0), ev.value("exposure_s", 0.0),
-                  ev.value("eta_s", 0.0));
-      std::fflush(stdout);
+      progress.update(ev.value("views_done", 0), ev.value("views_total", 0),
+                      "  views %d/%d  bracket frame %d (%.4g s)  ETA %.0f s", ev.value("views_done", 0),
+                      ev.value("views_total", 0), ev.value("bracket_index", 0), ev.value("exposure_s", 0.0),
+                      ev.value("eta_s", 0.0));
     } else if (ev.value("event", "") == "state" && ev.value("state", "") != "running") {
-      std::printf("\n%s %s\n", ev.value("session", "").c_str(), ev.value("state", "").c_str());
+      progress.finish();
+      std::printf("%s %s\n", ev.value("session", "").c_str(), ev.value("state", "").c_str());
       if (ev.contains("error")) return make_error(ErrorCode::kDevice, ev["error"].get<std::string>());
       return Status::ok();
     }
@@ -124,8 +135,11 @@ Status run(const std::string& verb, const SessionArgs& a) {
   if (!reply) return reply.status();
   if (verb == "list") {
     for (const auto& s : reply.value()["sessions"])
-      std::printf("%-24s %4d/%-4d %s %s\n", s.value("session", "").c_str(), s.value("views_done", 0),
-                  s.value("views_total", 0), s.value("scheme", "").c_str(), s.value("bracket", "").c_str());
+      if (s.value("damaged", false))
+        std::printf("%-24s damaged: %s\n", s.value("session", "").c_str(), s.value("reason", "").c_str());
+      else
+        std::printf("%-24s %4d/%-4d %s %s\n", s.value("session", "").c_str(), s.value("views_done", 0),
+                    s.value("views_total", 0), s.value("scheme", "").c_str(), s.value("bracket", "").c_str());
     return Status::ok();
   }
   if (verb == "status") {

@@ -72,6 +72,14 @@ bool stop_now(const CaptureOptions& o) { return o.stop_requested && o.stop_reque
 Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options) {
   std::string why;
   if (!options.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "capture options: " + why);
+  // One capturer per session: a second process would drive its rig through the same views. Held for this run unless
+  // the caller holds it already (Session::open_for_capture, Session::lock).
+  std::optional<ProcessLock> run_lock;
+  if (!session.locked()) {
+    auto held = lock_session(session.dir());
+    if (!held) return held.error();
+    run_lock = std::move(held.value());
+  }
   auto logger = log::get("capture");
   BracketSpec bracket = options.effective_bracket();
   const auto& views = session.manifest().views;

@@ -73,6 +73,11 @@ Status Daemon::start() {
   std::error_code ec;
   fs::create_directories(config.sessions_dir, ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + config.sessions_dir.string() + ": " + ec.message());
+  // A rig config that does not build (unknown backend, bad settings) or a rig another process drives is refused
+  // before listening, not at the first request. (Its lock lives in the runtime dir, made first.)
+  VDRIG_TRY(impl_->server.make_runtime_dir());
+  if (const Status rig = impl_->runner.prepare(); !rig)
+    return make_error(rig.error().code, "rig config: " + rig.error().message);
   return impl_->server.open();
 }
 

@@ -270,14 +270,25 @@ Reply Protocol::list_sessions(const json&, bool&) {
     const std::string name = entry.path().filename().string();
     std::error_code type_ec;
     if (!entry.is_directory(type_ec) || !valid_session_name(name)) continue;
-    auto s = Session::open(entry.path());
-    if (!s) continue;
-    list.push_back({{"session", name},
-                    {"views_total", s->manifest().views.size()},
-                    {"views_done", s->completed_view_count()},
-                    {"scheme", s->manifest().scheme},
-                    {"bracket", s->manifest().bracket}});
+    // One damaged folder must not hide the others: it is listed with the reason it cannot be opened.
+    std::string damage;
+    try {
+      auto s = Session::open(entry.path());
+      if (s) {
+        list.push_back({{"session", name},
+                        {"views_total", s->manifest().views.size()},
+                        {"views_done", s->completed_view_count()},
+                        {"scheme", s->manifest().scheme},
+                        {"bracket", s->manifest().bracket}});
+        continue;
+      }
+      damage = s.error().message;
+    } catch (const std::exception& e) {
+      damage = e.what();
+    }
+    list.push_back({{"session", name}, {"damaged", true}, {"reason", damage}});
   }
+  if (ec) return make_error(ErrorCode::kIo, "cannot list " + config_.sessions_dir.string() + ": " + ec.message());
   return json{{"sessions", list}};
 }
 

@@ -41,11 +41,26 @@ void SocketServer::wake() {
   [[maybe_unused]] const ssize_t n = ::write(wake_pipe_[1], &b, 1);
 }
 
+Status SocketServer::make_runtime_dir() {
+  const std::string dir = config_.runtime_dir.string();
+  // Create only what the daemon owns: a folder made here gets 0770; an existing one (a shared 1777 /tmp-like
+  // folder, a systemd RuntimeDirectory) keeps the mode its owner gave it.
+  struct stat dir_st {};
+  if (::stat(dir.c_str(), &dir_st) != 0) {
+    if (errno != ENOENT) return make_error(ErrorCode::kIo, "cannot look at " + dir + ": " + std::strerror(errno));
+    std::error_code ec;
+    if (config_.runtime_dir.has_parent_path()) fs::create_directories(config_.runtime_dir.parent_path(), ec);
+    if (::mkdir(dir.c_str(), 0770) != 0 && errno != EEXIST)
+      return make_error(ErrorCode::kIo, "cannot create " + dir + ": " + std::strerror(errno));
+    ::chmod(dir.c_str(), 0770);  // exactly 0770 whatever the umask: it is ours
+  } else if (!S_ISDIR(dir_st.st_mode)) {
+    return make_error(ErrorCode::kInvalidArgument, "runtime dir " + dir + " is not a folder");
+  }
+  return Status::ok();
+}
+
 Status SocketServer::open() {
-  std::error_code ec;
-  fs::create_directories(config_.runtime_dir, ec);
-  if (ec) return make_error(ErrorCode::kIo, "cannot create " + config_.runtime_dir.string() + ": " + ec.message());
-  ::chmod(config_.runtime_dir.c_str(), 0770);
+  VDRIG_TRY(make_runtime_dir());
   if (::pipe2(wake_pipe_, O_NONBLOCK | O_CLOEXEC) != 0)
     return make_error(ErrorCode::kIo, std::string("pipe: ") + std::strerror(errno));
 
@@ -53,13 +68,25 @@ Status SocketServer::open() {
   addr.sun_family = AF_UNIX;
   const std::string path = socket_path().string();  // DaemonConfig::is_valid checked that it fits
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  if (fs::exists(socket_path(), ec)) {
-    // A live daemon answers a connect; a stale file (crash) does not and is replaced.
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode))
+      return make_error(ErrorCode::kInvalidArgument,
+                        path + " exists and is not a socket; remove it or choose another --runtime-dir");
+    // A live daemon answers a connect; a stale socket (a crash) refuses it and is replaced. Anything else (no
+    // permission to connect) is not ours to remove.
     const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    const bool live = probe >= 0 && ::connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-    if (probe >= 0) ::close(probe);
-    if (live) return make_error(ErrorCode::kInvalidArgument, "another daemon is serving " + path);
+    if (probe < 0) return make_error(ErrorCode::kIo, std::string("socket: ") + std::strerror(errno));
+    const int rc = ::connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+    const int err = errno;
+    ::close(probe);
+    if (rc == 0) return make_error(ErrorCode::kInvalidArgument, "another daemon is serving " + path);
+    if (err != ECONNREFUSED)
+      return make_error(ErrorCode::kInvalidArgument,
+                        "cannot tell whether " + path + " is stale: " + std::strerror(err));
     ::unlink(path.c_str());
+  } else if (errno != ENOENT) {
+    return make_error(ErrorCode::kIo, "cannot look at " + path + ": " + std::strerror(errno));
   }
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (listen_fd_ < 0) return make_error(ErrorCode::kIo, std::string("socket: ") + std::strerror(errno));
@@ -68,6 +95,7 @@ Status SocketServer::open() {
   const int rc = ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
   ::umask(old_mask);
   if (rc != 0) return make_error(ErrorCode::kIo, "bind " + path + ": " + std::strerror(errno));
+  bound_ = true;
   ::chmod(path.c_str(), 0660);
   if (::listen(listen_fd_, 16) != 0) return make_error(ErrorCode::kIo, std::string("listen: ") + std::strerror(errno));
   logger_->info("listening on {} (uid {} allowed)", path, config_.allowed_uid);
@@ -112,26 +140,37 @@ void SocketServer::accept_clients() {
   }
 }
 
-bool SocketServer::read_client(Connection& c, const LineHandler& on_line) {
+bool SocketServer::has_pending_line(const Connection& c) { return !c.closing && c.in.find('\n') != std::string::npos; }
+
+bool SocketServer::read_client(Connection& c) {
   char buf[16384];
-  while (true) {
-    const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
-    if (n == 0) return false;
-    if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
-    if (c.closing) continue;  // discard input after a fatal request
-    c.in.append(buf, static_cast<size_t>(n));
-    size_t pos;
-    while (!c.closing && (pos = c.in.find('\n')) != std::string::npos) {
-      const std::string line = c.in.substr(0, pos);
-      c.in.erase(0, pos + 1);
-      if (line.size() > config_.max_line_bytes) {
-        too_long(c);
-        break;
-      }
-      send(c, on_line(line, c.subscribed));
-    }
-    if (!c.closing && c.in.size() > config_.max_line_bytes) too_long(c);
+  const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
+  if (n == 0) {
+    c.eof = true;
+    return true;
   }
+  if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
+  if (c.closing) return true;  // discard input after a fatal request
+  c.in.append(buf, static_cast<size_t>(n));
+  return true;  // an unfinished line that is already too long is refused by answer_client()
+}
+
+void SocketServer::answer_client(Connection& c, const LineHandler& on_line) {
+  size_t start = 0;
+  for (int answered = 0; answered < kRequestsPerRound && !c.closing; ++answered) {
+    const size_t pos = c.in.find('\n', start);
+    if (pos == std::string::npos) break;
+    const std::string line = c.in.substr(start, pos - start);
+    start = pos + 1;
+    if (line.size() > config_.max_line_bytes) {
+      too_long(c);
+      break;
+    }
+    send(c, on_line(line, c.subscribed));
+  }
+  if (c.closing) return;
+  c.in.erase(0, start);
+  if (c.in.find('\n') == std::string::npos && c.in.size() > config_.max_line_bytes) too_long(c);
 }
 
 void SocketServer::too_long(Connection& c) {
@@ -156,12 +195,16 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
     std::vector<pollfd> fds;
     fds.push_back({listen_fd_, POLLIN, 0});
     fds.push_back({wake_pipe_[0], POLLIN, 0});
+    bool work_pending = false;
     for (auto& [fd, c] : clients_) {
-      short ev = c.closing ? 0 : POLLIN;
+      // A client with unanswered lines is not read from until they are answered (round-robin, bounded buffers).
+      const bool pending = has_pending_line(c);
+      work_pending = work_pending || pending;
+      short ev = c.closing || c.eof || pending ? 0 : POLLIN;
       if (!c.out.empty()) ev |= POLLOUT;
       fds.push_back({fd, ev, 0});
     }
-    const int n = ::poll(fds.data(), fds.size(), 1000);
+    const int n = ::poll(fds.data(), fds.size(), work_pending ? 0 : 1000);
     if (n < 0) {
       if (errno == EINTR) continue;
       return make_error(ErrorCode::kIo, std::string("poll: ") + std::strerror(errno));
@@ -176,19 +219,22 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
       if (it == clients_.end()) continue;
       Connection& c = it->second;
       bool alive = true;
-      if (fds[k].revents & (POLLIN | POLLHUP | POLLERR)) alive = read_client(c, on_line);
+      if ((fds[k].revents & (POLLIN | POLLHUP | POLLERR)) && !c.eof && !has_pending_line(c)) alive = read_client(c);
       if (alive && (fds[k].revents & POLLERR)) alive = false;
       if (!alive) {
         ::close(c.fd);
         clients_.erase(it);
       }
     }
+    // One turn each: at most kRequestsPerRound answers per client.
+    for (auto& [fd, c] : clients_) answer_client(c, on_line);
     if (fds[0].revents & POLLIN) accept_clients();
     after_io();
     for (auto it = clients_.begin(); it != clients_.end();) {
       Connection& c = it->second;
       const bool ok = flush_client(c);
-      if (!ok || (c.closing && c.out.empty())) {
+      const bool done = c.out.empty() && (c.closing || (c.eof && !has_pending_line(c)));
+      if (!ok || done) {
         ::close(c.fd);
         it = clients_.erase(it);
       } else {
@@ -208,7 +254,10 @@ void SocketServer::close() {
   if (listen_fd_ >= 0) {
     ::close(listen_fd_);
     listen_fd_ = -1;
+  }
+  if (bound_) {  // only the socket this server bound
     ::unlink(socket_path().c_str());
+    bound_ = false;
   }
 }
 

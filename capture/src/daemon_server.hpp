@@ -1,6 +1,9 @@
-// vdrigd's socket server: the Unix socket (0660 in a 0770 folder), peer credentials (SO_PEERCRED), line framing
-// and per-connection buffers, in one poll() loop. It knows nothing of commands: each complete line goes to a
-// callback whose reply it queues, and it pushes events to the connections that asked for them.
+// vdrigd's socket server: the Unix socket (0660, in a folder created 0770 when missing), peer credentials
+// (SO_PEERCRED), line framing and per-connection buffers, in one poll() loop. It knows nothing of commands: each
+// complete line goes to a callback whose reply it queues, and it pushes events to the connections that asked for them.
+// Clients are served round-robin: at most kRequestsPerRound lines of one client are answered per loop round, and a
+// client with unanswered lines is not read from (its kernel buffer fills and its writes block), so one client
+// pipelining thousands of requests delays another by a few requests at most.
 #pragma once
 
 #include <atomic>
@@ -23,6 +26,7 @@ struct Connection {
   std::string out;          // bytes queued for sending
   bool subscribed = false;  // wants pushed events (set by the protocol's `subscribe`)
   bool closing = false;     // input is ignored; close once `out` is flushed
+  bool eof = false;         // the peer shut down its writing side: answer what is in `in`, then close
 };
 
 /// Answers one request line (its '\n' and any '\r' left on): the reply object. May set `subscribed`.
@@ -38,8 +42,13 @@ class SocketServer {
 
   std::filesystem::path socket_path() const;
 
-  /// Creates the runtime dir (0770) and binds the socket (0660). A stale socket file is replaced; a live daemon on
-  /// it is kInvalidArgument.
+  /// Lines of one client answered per loop round before the others get their turn.
+  static constexpr int kRequestsPerRound = 4;
+
+  /// Creates the runtime dir 0770 when missing; an existing one is used as it is (its mode is its owner's).
+  Status make_runtime_dir();
+  /// make_runtime_dir(), then binds the socket (0660). A stale socket at the path (connect refused) is replaced; a
+  /// live daemon on it, or anything that is not a socket, is kInvalidArgument and left alone.
   Status open();
   /// Serves until `stop` is set: answers each request line with `on_line`, then calls `after_io` (for pushing
   /// events), then writes what it can. Returns only a fatal error (poll failure), else ok.
@@ -53,8 +62,12 @@ class SocketServer {
 
  private:
   void accept_clients();
-  /// Reads what is there and answers complete lines; false when the peer closed or failed.
-  bool read_client(Connection& c, const LineHandler& on_line);
+  /// Reads what is there (one recv); false when the connection failed.
+  bool read_client(Connection& c);
+  /// Answers up to kRequestsPerRound complete lines of `c`.
+  void answer_client(Connection& c, const LineHandler& on_line);
+  /// Whether `c` has a complete request line not yet answered.
+  static bool has_pending_line(const Connection& c);
   void too_long(Connection& c);
   void send(Connection& c, const nlohmann::json& j);
   /// Writes queued output; false on a write error.
@@ -62,6 +75,7 @@ class SocketServer {
 
   const DaemonConfig& config_;
   int listen_fd_ = -1;
+  bool bound_ = false;  // socket_path() is this server's socket (close() removes it)
   int wake_pipe_[2] = {-1, -1};
   std::map<int, Connection> clients_;
   std::shared_ptr<spdlog::logger> logger_;

@@ -31,6 +31,16 @@ PanTilt pan_tilt_from(const json& j) {
   return {deg_to_rad(j.at("pan_deg").get<double>()), deg_to_rad(j.at("tilt_deg").get<double>())};
 }
 
+/// Whether a journal line's "view" is a number that names no view of the manifest (99999, -1, 1e30, 2.5): such a
+/// line is ignored. A missing or non-number "view" is left to the line's parser.
+bool view_out_of_range(const json& line, size_t view_count) {
+  const auto it = line.find("view");
+  if (it == line.end() || !it->is_number()) return false;
+  if (it->is_number_unsigned()) return it->get<uint64_t>() >= view_count;
+  if (it->is_number_integer()) return it->get<int64_t>() < 0 || static_cast<uint64_t>(it->get<int64_t>()) >= view_count;
+  return true;  // a floating-point view index
+}
+
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
   std::tm tm{};
@@ -93,6 +103,7 @@ Result<Manifest> Manifest::from_json(const json& j) {
         return make_error(ErrorCode::kCorrupt, "manifest: views must be indexed 0..N-1 in order");
       m.views.push_back(pv);
     }
+    if (m.views.empty()) return make_error(ErrorCode::kCorrupt, "manifest: no views planned");
     m.extra = j.value("extra", json::object());
     return m;
   } catch (const json::exception& e) {
@@ -141,6 +152,7 @@ Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_empty(dir, ec))
     return make_error(ErrorCode::kInvalidArgument, "session folder " + dir.string() + " exists and is not empty");
+  if (manifest.views.empty()) return make_error(ErrorCode::kInvalidArgument, "a session needs at least one view");
   const SessionLayout layout(dir);
   fs::create_directories(layout.frames_dir(), ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
@@ -196,6 +208,14 @@ Result<Session> Session::open(const fs::path& dir) {
     if (j.is_discarded())
       return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + " is not valid JSON");
     const std::string type = j.value("type", "");
+    if (type == "frame" || type == "view_complete") {
+      // A completion line must name its view (the old default -1 counted a view that does not exist).
+      if (view_out_of_range(j, s.manifest_.views.size()) || (type == "view_complete" && !j.contains("view"))) {
+        log::get("capture")->warn("session {}: journal line {} names view {}, outside the manifest's {} views: ignored",
+                                  dir.string(), line_no, j.value("view", json()).dump(), s.manifest_.views.size());
+        continue;
+      }
+    }
     if (type == "frame") {
       auto r = FrameRecord::from_json(j);
       if (!r)
@@ -206,6 +226,25 @@ Result<Session> Session::open(const fs::path& dir) {
     }  // other types (events, faults) are informational
   }
   return s;
+}
+
+Result<Session> Session::open_for_capture(const fs::path& dir) {
+  if (!fs::exists(SessionLayout(dir).manifest_file()))
+    return make_error(ErrorCode::kNotFound, "no session at " + dir.string());
+  auto lock = lock_session(dir);
+  if (!lock) return lock.error();
+  auto s = open(dir);
+  if (!s) return s.error();
+  s->lock_ = std::make_shared<ProcessLock>(std::move(lock.value()));
+  return s;
+}
+
+Status Session::lock() {
+  if (lock_) return Status::ok();
+  auto lock = lock_session(dir_);
+  if (!lock) return lock.error();
+  lock_ = std::make_shared<ProcessLock>(std::move(lock.value()));
+  return Status::ok();
 }
 
 std::vector<FrameRecord> Session::frames_of_view(int view) const {

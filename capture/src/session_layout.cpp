@@ -9,6 +9,7 @@ namespace fs = std::filesystem;
 
 fs::path SessionLayout::manifest_file() const { return dir_ / "manifest.json"; }
 fs::path SessionLayout::journal_file() const { return dir_ / "journal.jsonl"; }
+fs::path SessionLayout::lock_file() const { return dir_ / "capture.lock"; }
 
 fs::path SessionLayout::frames_dir() const { return dir_ / "frames"; }
 

@@ -72,12 +72,18 @@ std::deque<json> SessionRunner::take_events() {
 Status SessionRunner::ensure_rig(const json& rig_config, bool must_match) {
   if (rig_ && (!must_match || rig_config == rig_config_in_use_)) return Status::ok();
   rig_.reset();
+  rig_lock_.reset();
+  auto lock = lock_rig(rig_config, config_.runtime_dir);
+  if (!lock) return lock.error();
   auto built = config_.make_rig(rig_config);
   if (!built) return built.error();
+  rig_lock_ = std::move(lock.value());
   rig_ = std::move(built.value());
   rig_config_in_use_ = rig_config;
   return Status::ok();
 }
+
+Status SessionRunner::prepare() { return ensure_rig(config_.rig_config, false); }
 
 Result<Manifest> SessionRunner::start(const std::string& name, const fs::path& dir, PlanRequest plan) {
   join_worker();
@@ -94,7 +100,8 @@ Result<Manifest> SessionRunner::start(const std::string& name, const fs::path& d
 
 Status SessionRunner::resume(const std::string& name, const fs::path& dir) {
   join_worker();
-  auto session = Session::open(dir);
+  // Locked before its journal is read: a session another process captures is refused with that process's PID.
+  auto session = Session::open_for_capture(dir);
   if (!session) return session.error();
   VDRIG_TRY(ensure_rig(session->manifest().rig_config, true));
   launch(std::move(session.value()), name);

@@ -15,6 +15,7 @@
 
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
+#include "vdrig/capture/process_lock.hpp"
 
 namespace vdrig::capture {
 
@@ -40,6 +41,10 @@ class SessionRunner {
   nlohmann::json status();
   /// State and progress events since the last call, oldest first.
   std::deque<nlohmann::json> take_events();
+
+  /// Builds the configured rig (DaemonConfig::rig_config) and takes its lock, so a daemon with a rig config that does
+  /// not build, or a rig another process drives, refuses to start. The error says why.
+  Status prepare();
 
   /// Builds the rig `plan.rig_config` describes (unless it is the one in hand), plans the session on its stage,
   /// creates it in `dir` and starts capturing. Precondition: !running(). Returns the manifest written.
@@ -72,7 +77,8 @@ class SessionRunner {
 
  private:
   void join_worker();
-  /// Builds the rig for `rig_config` unless the one in hand already is; `must_match` false takes any rig in hand.
+  /// Builds the rig for `rig_config` (taking its lock: process_lock.hpp) unless the one in hand already is;
+  /// `must_match` false takes any rig in hand.
   Status ensure_rig(const nlohmann::json& rig_config, bool must_match);
   void launch(Session session, const std::string& name);
   void finish(const Status& result, const std::string& name);
@@ -82,6 +88,7 @@ class SessionRunner {
 
   // Built on demand; used by the worker while it runs, by home/move otherwise.
   std::optional<rig::Rig> rig_;
+  std::optional<ProcessLock> rig_lock_;  // the rig's lock while it is in hand (none for an unlocked rig)
   nlohmann::json rig_config_in_use_;
 
   std::thread worker_;

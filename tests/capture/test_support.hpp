@@ -2,17 +2,26 @@
 // (docs/protocol.md). Temporary folders come from vdrig/test/temp_dir.hpp, as in every module's tests.
 #pragma once
 
+#include <fcntl.h>
 #include <poll.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -95,6 +104,85 @@ inline nlohmann::json request(int fd, std::string& buffer, const nlohmann::json&
     if (j.is_discarded()) return nlohmann::json{{"unparseable", *line}};
     if (!j.contains("event")) return j;
   }
+}
+
+/// The built executables the process-level tests run: `env` when set (to run the tests against another build),
+/// else the path CMake compiled in (VDRIG_CLI_PATH / VDRIG_VDRIGD_PATH), else "".
+inline std::string executable(const char* env, const char* built) {
+  const char* e = std::getenv(env);
+  return e && *e ? e : built;
+}
+inline std::string vdrig_cli() {
+#ifdef VDRIG_CLI_PATH
+  return executable("VDRIG_TEST_CLI", VDRIG_CLI_PATH);
+#else
+  return executable("VDRIG_TEST_CLI", "");
+#endif
+}
+inline std::string vdrigd_exe() {
+#ifdef VDRIG_VDRIGD_PATH
+  return executable("VDRIG_TEST_VDRIGD", VDRIG_VDRIGD_PATH);
+#else
+  return executable("VDRIG_TEST_VDRIGD", "");
+#endif
+}
+
+/// What a finished child process left: its exit code (-1: killed by a signal or timed out), stdout and stderr.
+struct ProcessResult {
+  int exit_code = -1;
+  bool timed_out = false;
+  std::string out, err;
+};
+
+/// Runs `argv` (argv[0] is the executable's path) with stdout and stderr to files (not a terminal), killing it after
+/// `timeout_s`.
+inline ProcessResult run_process(const std::vector<std::string>& argv, double timeout_s = 120.0) {
+  static int counter = 0;
+  const std::filesystem::path base = std::filesystem::temp_directory_path() /
+                                     ("vdrig_proc_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+  const std::string out_file = base.string() + ".out", err_file = base.string() + ".err";
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int out = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  ProcessResult r;
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (true) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      r.timed_out = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!r.timed_out && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  auto slurp = [](const std::string& f) {
+    std::ifstream in(f, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  r.out = slurp(out_file);
+  r.err = slurp(err_file);
+  std::filesystem::remove(out_file);
+  std::filesystem::remove(err_file);
+  return r;
+}
+
+inline void write_text(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary);
+  out << text;
 }
 
 }  // namespace vdrig::capture::testing

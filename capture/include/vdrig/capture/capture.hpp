@@ -53,7 +53,9 @@ struct CaptureOptions {
   BracketSpec effective_bracket() const;
 };
 
-/// Captures every view of the session's manifest that is not yet complete, in manifest order. Returns kCancelled
+/// Captures every view of the session's manifest that is not yet complete, in manifest order. The session is locked
+/// for the run (process_lock.hpp) unless `session` holds its lock already; another process capturing it is
+/// kInvalidArgument "session DIR is in use by PID n" before anything moves. Returns kCancelled
 /// when stopped on request (the session stays consistent and resumable), kNoSpace when the disk is (nearly) full,
 /// or the device/I-O failure that outlasted the retries. Warns (log and journal) when the camera is in auto exposure.
 Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options);

@@ -22,12 +22,14 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "vdrig/capture/process_lock.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/frame.hpp"
 #include "vdrig/core/geometry.hpp"
@@ -82,12 +84,23 @@ struct FrameRecord {
 
 class Session {
  public:
-  /// Creates the folder (must not exist or be empty) and writes the manifest.
+  /// Creates the folder (must not exist or be empty) and writes the manifest (which must plan at least one view).
   static Result<Session> create(const std::filesystem::path& dir, Manifest manifest);
   /// Opens an existing session; reads the manifest and replays the journal. A torn last journal line (a crash
   /// mid-append) is dropped with a warning and cut off the file (so the next append starts a clean line); any
   /// other malformed line is kCorrupt.
+  /// Journal lines naming a view outside the manifest (a negative, too large or non-integer "view", or a completion
+  /// line without one) are ignored with a warning that says so. A manifest without views is kCorrupt.
   static Result<Session> open(const std::filesystem::path& dir);
+  /// open() for capturing: takes the session's lock (lock()) before replaying the journal, so no other process
+  /// appends while it is read. The lock is held as long as this Session (or a copy) lives.
+  static Result<Session> open_for_capture(const std::filesystem::path& dir);
+
+  /// Locks the session for capturing (process_lock.hpp; SessionLayout::lock_file()) unless this Session holds the
+  /// lock already. Another process capturing: kInvalidArgument "session DIR is in use by PID n".
+  Status lock();
+  /// Whether this Session (or a copy) holds the session's lock.
+  bool locked() const { return lock_ != nullptr; }
 
   const std::filesystem::path& dir() const { return dir_; }
   /// Where the session's files live.
@@ -139,6 +152,7 @@ class Session {
   std::map<int, int> complete_views_;  // view -> frame count (-1 unknown)
   std::vector<FrameRecord> pending_;   // frames of the view in hand: files written, not yet committed
   WriteHook write_hook_;
+  std::shared_ptr<ProcessLock> lock_;  // held while capturing (shared by copies; released when the last goes)
 };
 
 /// The software version written into manifests.

@@ -4,6 +4,8 @@
 //   SESSION/manifest.json              what was planned (capture/session.hpp: Manifest). Written atomically; stages
 //                                      rewrite only its `extra` section.
 //   SESSION/journal.jsonl              append-only record of committed frames and events (capture/session.hpp).
+//   SESSION/capture.lock               flock'ed by the process capturing into the session, holding its PID
+//                                      (capture/process_lock.hpp); present once a capture ran, locked only meanwhile.
 //   SESSION/frames/view_VVVV_eEE.png   frame EE of view VVVV's exposure bracket: 8- or 16-bit PNG, BGR codes as the
 //                                      camera delivered them. Journal lines name them relative to SESSION.
 //   SESSION/hdr/view_VVVV.exr          the view's bracket merged to relative radiance with its clip mask
@@ -36,6 +38,8 @@ class SessionLayout {
 
   std::filesystem::path manifest_file() const;
   std::filesystem::path journal_file() const;
+  /// The file whose flock says who captures into the session (process_lock.hpp).
+  std::filesystem::path lock_file() const;
 
   std::filesystem::path frames_dir() const;
   /// "frames/view_VVVV_eEE.png": a frame file relative to the session folder, as journal lines record it.
