@@ -37,7 +37,7 @@ std::string frame_line(const std::string& view) {
 }
 
 TEST(SessionJournalRange, ViewsOutsideTheManifestAreIgnoredNotCounted) {
-  testing::ScopedTempDir dir("journal_range");
+  vdrig::test::TempDir dir("journal_range");
   {
     auto s = Session::create(dir.path(), three_views());
     ASSERT_TRUE(s) << s.error().describe();
@@ -68,7 +68,7 @@ TEST(SessionJournalRange, ViewsOutsideTheManifestAreIgnoredNotCounted) {
 }
 
 TEST(SessionJournalRange, AManifestWithoutViewsIsRefusedAtLoad) {
-  testing::ScopedTempDir dir("journal_noviews");
+  vdrig::test::TempDir dir("journal_noviews");
   {
     auto s = Session::create(dir.path(), three_views());
     ASSERT_TRUE(s) << s.error().describe();
@@ -89,7 +89,7 @@ TEST(SessionJournalRange, AManifestWithoutViewsIsRefusedAtLoad) {
   auto m = Manifest::from_json(j);
   EXPECT_FALSE(m);
   // Nor is one created.
-  testing::ScopedTempDir other("journal_noviews_create");
+  vdrig::test::TempDir other("journal_noviews_create");
   Manifest empty = three_views();
   empty.views.clear();
   EXPECT_FALSE(Session::create(other.path(), empty));
