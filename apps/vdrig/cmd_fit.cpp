@@ -1,6 +1,11 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 
 #include "commands.hpp"
@@ -27,6 +32,25 @@ struct FitArgs {
   int threads = 0;
 };
 
+/// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
+/// checked before the fit, which can take hours, rather than when the map is written.
+Status check_output_writable(const fs::path& out) {
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    return make_error(ErrorCode::kInvalidArgument, "--out: cannot create folder " + dir.string() + ": " + ec.message());
+  if (fs::is_directory(out)) return make_error(ErrorCode::kInvalidArgument, "--out: " + out.string() + " is a folder");
+  std::string probe = (dir / ".vdrig-write-check-XXXXXX").string();
+  const int fd = ::mkstemp(probe.data());
+  if (fd < 0)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--out: cannot write in " + dir.string() + ": " + std::strerror(errno));
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return Status::ok();
+}
+
 Status run_fit(const FitArgs& a) {
   auto model = fitting::ModelDescriptor::parse(a.model);
   if (!model) return model.error();
@@ -34,11 +58,17 @@ Status run_fit(const FitArgs& a) {
   if (!res) return res.error();
   if (a.residual != "absolute" && a.residual != "relative")
     return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
+  if (a.threads < 0 || a.threads > fitting::MapFitOptions::kMaxThreads)
+    return make_error(ErrorCode::kInvalidArgument, "--threads must be in [0, " +
+                                                       std::to_string(fitting::MapFitOptions::kMaxThreads) +
+                                                       "] (0: all cores), got " + std::to_string(a.threads));
   auto session = capture::Session::open(a.session);
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
   if (a.holdout < 0 || a.holdout >= n_views)
     return make_error(ErrorCode::kInvalidArgument, "--holdout must be in [0, " + std::to_string(n_views - 1) + "]");
+  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(a.model) : fs::path(a.out);
+  VDRIG_TRY(check_output_writable(out));
 
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
@@ -92,9 +122,6 @@ Status run_fit(const FitArgs& a) {
   std::printf("\n");
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
-  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(a.model) : fs::path(a.out);
-  std::error_code ec;
-  if (out.has_parent_path()) fs::create_directories(out.parent_path(), ec);
   VDRIG_TRY(map->write(out));
 
   // Summary: median RMS over texels with a fit (and held-out RMS when views were held out).

@@ -125,6 +125,10 @@ Result<ResolvedFit> resolve(const MapFitOptions& options, int views) {
     return make_error(ErrorCode::kInvalidArgument, "phong:auto does not take fixed directions");
   if (options.min_observations < 1)
     return make_error(ErrorCode::kInvalidArgument, "fit_parameter_map: min_observations must be >= 1");
+  if (options.threads < 0 || options.threads > MapFitOptions::kMaxThreads)
+    return make_error(ErrorCode::kInvalidArgument, "threads must be in [0, " +
+                                                       std::to_string(MapFitOptions::kMaxThreads) +
+                                                       "] (0: all cores), got " + std::to_string(options.threads));
   r.held_out = options.held_out;
   std::sort(r.held_out.begin(), r.held_out.end());
   r.held_out.erase(std::unique(r.held_out.begin(), r.held_out.end()), r.held_out.end());

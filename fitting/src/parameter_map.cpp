@@ -206,8 +206,28 @@ Status ParameterMap::write(const std::filesystem::path& path, ExrPixelType type)
   return write_exr(path, image_, type);
 }
 
+namespace {
+
+Status check_model_values(const ParameterMap& map, const std::filesystem::path& path) {
+  // Model-specific ranges (the hook for each model's own checks); every value is already known to be finite.
+  if (map.model().kind != "phong") return Status::ok();
+  const int lobes = map.model().shared_shininess ? 1 : map.model().lobes;
+  for (int k = 0; k < lobes; ++k) {
+    const std::string m = map.model().shared_shininess ? "m" : "m" + std::to_string(k);
+    for (int t = 0; t < map.texels_t(); ++t)
+      for (int s = 0; s < map.texels_s(); ++s)
+        if (map.at(m, s, t) < 0)
+          return make_error(ErrorCode::kCorrupt, path.string() + ": Phong exponent " + m + " is negative (" +
+                                                     std::to_string(map.at(m, s, t)) + ") at texel " +
+                                                     std::to_string(s) + "," + std::to_string(t));
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
 Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
-  auto img = read_exr(path);
+  auto img = read_exr(path, kMaxReadBytes);
   if (!img) return img.error();
   const auto& sa = img->string_attributes;
   const auto& na = img->number_attributes;
@@ -227,8 +247,17 @@ Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
   map.height_mm_ = na.at("vdrig.surface_height_mm");
   for (const auto& name : model_channels(map.model_))
     if (img->find(name) < 0) return make_error(ErrorCode::kCorrupt, path.string() + ": missing channel " + name);
+  // A NaN or infinite parameter renders garbage: refuse the map, naming the first one.
+  for (size_t c = 0; c < img->channels.size(); ++c) {
+    cv::Point at;
+    if (!cv::checkRange(img->channels[c], true, &at))
+      return make_error(ErrorCode::kCorrupt, path.string() + ": channel " + img->channel_names[c] +
+                                                 " is not finite at texel " + std::to_string(at.x) + "," +
+                                                 std::to_string(at.y));
+  }
   map.image_ = std::move(img.value());
   map.index_coefficients();
+  VDRIG_TRY(check_model_values(map, path));
   return map;
 }
 
