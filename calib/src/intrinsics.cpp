@@ -191,7 +191,6 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
     }
     break;
   }
-  std::string why;
   if (!res.camera.is_valid(&why)) return make_error(ErrorCode::kInternal, "calibration gave an invalid camera: " + why);
   return res;
 }

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "small_session.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
@@ -63,15 +64,10 @@ class CliHardening : public ::testing::Test {
   /// A small simulated session with its HDR views merged, built once (in process) for the tests that need one.
   static const fs::path& session() {
     static const fs::path dir = [] {
-      CaptureRequest req;
-      req.out_dir = dir_ / "session";
-      req.rig_config = sim::sim_rig_config({{"scene", "patchwork"}, {"camera", {{"width", 96}, {"height", 72}}}});
-      req.scheme = "latlong:2";
-      req.exposures_s = {1.0, 0.25};
-      auto s = capture_session(req);
+      const fs::path out = dir_ / "session";
+      auto s = test::small_merged_session(out);
       EXPECT_TRUE(s) << s.error().describe();
-      if (s) EXPECT_TRUE(merge_session_hdr(s.value()));
-      return req.out_dir;
+      return out;
     }();
     return dir;
   }
@@ -137,7 +133,14 @@ TEST_F(CliHardening, FifoFrameIsRefusedNotWaitedOn) {
 // --- item 2: arguments that aborted -----------------------------------------------------------------------------
 
 TEST_F(CliHardening, FuseHeightBeyondTheLimitIsAUsageError) {
-  expect_refused(vdrig("probe fuse p.exr:0,0,0 --room -1000,-1000,-1000,1000,1000,1000 --at 0,0,0 --height 100000"),
+  // A real (16 x 8 lat-long) probe, so that only the height can stop the fusion.
+  ExrImage probe;
+  for (const char* c : {"R", "G", "B"}) probe.add(c, cv::Mat(8, 16, CV_32FC1, cv::Scalar::all(1.0)));
+  const fs::path file = dir_ / "probe.exr";
+  ASSERT_TRUE(write_exr(file, probe));
+  expect_refused(vdrig("probe fuse '" + file.string() +
+                       ":0,0,0' --room -1000,-1000,-1000,1000,1000,1000 --at 10,0,0 --height 100000 --out '" +
+                       (dir_ / "fused.exr").string() + "'"),
                  "fusion height", 2);
 }
 

@@ -10,9 +10,9 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "small_session.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -23,14 +23,8 @@ class ViewChecks : public ::testing::Test {
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("vdrig_view_checks_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
-    CaptureRequest req;
-    req.out_dir = dir_ / "session";
-    req.rig_config = sim::sim_rig_config({{"scene", "patchwork"}, {"camera", {{"width", 96}, {"height", 72}}}});
-    req.scheme = "latlong:2";
-    req.exposures_s = {1.0, 0.25};
-    auto s = capture_session(req);
+    auto s = test::small_merged_session(dir_ / "session");
     ASSERT_TRUE(s) << s.error().describe();
-    ASSERT_TRUE(merge_session_hdr(s.value()));
     session_.emplace(std::move(s.value()));
   }
   void TearDown() override { fs::remove_all(dir_); }
