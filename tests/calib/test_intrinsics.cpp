@@ -165,7 +165,7 @@ TEST(IntrinsicsInput, BadInputsAreErrorValues) {
   EXPECT_NE(r.error().message.find("612x459"), std::string::npos) << r.error().message;
 }
 
-TEST(Intrinsics, TinyImagesAndHugeSubpixelWindowsAreRefusedNotAsserted) {
+TEST(IntrinsicsLimits, TinyImagesAndHugeSubpixelWindowsAreRefusedNotAsserted) {
   // Issue #18: a 2x2 image or --subpix-half-window 100000 ended in an OpenCV assertion (abort).
   IntrinsicsOptions huge;
   huge.subpix_half_window = 100000;

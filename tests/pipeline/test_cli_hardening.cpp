@@ -25,7 +25,7 @@ std::string binary(const char* env, const char* built) {
   return e && *e ? e : built;
 }
 
-struct Run {
+struct ProcessRun {
   int exit_code = -1;  // 124: timed out (a hang)
   std::string out, err;
 };
@@ -47,19 +47,21 @@ class CliHardening : public ::testing::Test {
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
   /// Runs `program args` under a 60 s timeout, capturing stdout and stderr.
-  static Run run(const std::string& program, const std::string& args) {
+  static ProcessRun run(const std::string& program, const std::string& args) {
     const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
     const std::string cmd = "umask 022; timeout 60 '" + program + "' " + args + " >'" + out.string() + "' 2>'" +
                             err.string() + "' </dev/null";
     const int status = std::system(cmd.c_str());
-    Run r;
+    ProcessRun r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     r.out = slurp(out);
     r.err = slurp(err);
     return r;
   }
-  static Run vdrig(const std::string& args) { return run(binary("VDRIG_CLI_UNDER_TEST", VDRIG_CLI_PATH), args); }
-  static Run vdrigd(const std::string& args) { return run(binary("VDRIGD_UNDER_TEST", VDRIG_VDRIGD_PATH), args); }
+  static ProcessRun vdrig(const std::string& args) { return run(binary("VDRIG_CLI_UNDER_TEST", VDRIG_CLI_PATH), args); }
+  static ProcessRun vdrigd(const std::string& args) {
+    return run(binary("VDRIGD_UNDER_TEST", VDRIG_VDRIGD_PATH), args);
+  }
 
   /// A small simulated session with its HDR views merged, built once (in process) for the tests that need one.
   static const fs::path& session() {
@@ -77,9 +79,11 @@ class CliHardening : public ::testing::Test {
 fs::path CliHardening::dir_;
 
 /// A clear refusal: exit 1 or 2 (not a signal, a hang or success) with `needle` on stderr.
-void expect_refused(const Run& r, const std::string& needle, int code = 0) {
+void expect_refused(const ProcessRun& r, const std::string& needle, int code = 0) {
   EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << "exit " << r.exit_code << "\nstderr: " << r.err;
-  if (code) EXPECT_EQ(r.exit_code, code) << r.err;
+  if (code != 0) {
+    EXPECT_EQ(r.exit_code, code) << r.err;
+  }
   EXPECT_NE(r.err.find(needle), std::string::npos) << "stderr lacks \"" << needle << "\": " << r.err;
 }
 
@@ -158,7 +162,7 @@ TEST_F(CliHardening, IntrinsicsRefuseTinyImagesAndHugeSubpixelWindows) {
 }
 
 TEST_F(CliHardening, FitThreadsBeyondTheLimitIsRefusedBeforeAnyWork) {
-  const Run r = vdrig("fit '" + session().string() + "' --res 8x8 --threads 100000");
+  const ProcessRun r = vdrig("fit '" + session().string() + "' --res 8x8 --threads 100000");
   expect_refused(r, "threads", 2);
   EXPECT_EQ(r.out.find("observation map"), std::string::npos) << r.out;
 }
@@ -207,7 +211,7 @@ TEST_F(CliHardening, HdrMergesDamagedViewsAgainAndForceMergesEveryView) {
   ASSERT_FALSE(read_exr(layout.hdr_file(damaged)));
   const auto intact_time = fs::last_write_time(layout.hdr_file(intact));
 
-  Run r = vdrig("hdr '" + s.string() + "'");
+  ProcessRun r = vdrig("hdr '" + s.string() + "'");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(read_exr(layout.hdr_file(damaged))) << "the truncated view was skipped";
   EXPECT_EQ(fs::last_write_time(layout.hdr_file(intact)), intact_time) << "an intact view was merged again";
@@ -220,14 +224,14 @@ TEST_F(CliHardening, HdrMergesDamagedViewsAgainAndForceMergesEveryView) {
 TEST_F(CliHardening, FitChecksTheOutputFolderBeforeFitting) {
   const fs::path file = dir_ / "a_file";
   std::ofstream(file) << "x";
-  const Run r = vdrig("fit '" + session().string() + "' --res 8x8 --out '" + (file / "map.exr").string() + "'");
+  const ProcessRun r = vdrig("fit '" + session().string() + "' --res 8x8 --out '" + (file / "map.exr").string() + "'");
   expect_refused(r, "--out");
   EXPECT_EQ(r.out.find("observation map"), std::string::npos) << "refused only after the work:\n" << r.out;
 }
 
 TEST_F(CliHardening, ObservationMapFilesGetTheModeOfOtherOutputs) {
   const fs::path file = dir_ / "mode.vdobs";
-  const Run r = vdrig("obsmap build '" + session().string() + "' --res 8x8 --out '" + file.string() + "'");
+  const ProcessRun r = vdrig("obsmap build '" + session().string() + "' --res 8x8 --out '" + file.string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   struct stat st {};
   ASSERT_EQ(::stat(file.c_str(), &st), 0);
