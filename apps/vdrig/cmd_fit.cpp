@@ -170,7 +170,9 @@ const CommandRegistrar kFit([](CLI::App& root) {
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}));
   cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads,
+                  "worker threads (0 = all cores; at most " + std::to_string(fitting::MapFitOptions::kMaxThreads) + ")")
+      ->capture_default_str();
   cmd->callback([args] { finish(run_fit(*args)); });
 });
 
