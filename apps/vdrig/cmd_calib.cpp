@@ -76,6 +76,7 @@ Status run_intrinsics(const std::string& board, double square_m, const std::vect
     return usage("--board wants COLSxROWS inner corners, e.g. 9x6; got '" + board + "'");
   std::vector<cv::Mat> images;
   for (const auto& p : paths) {
+    VDRIG_TRY(check_regular_file(p));  // cv::imread would wait on a FIFO
     cv::Mat m = cv::imread(p, cv::IMREAD_GRAYSCALE);
     if (m.empty()) return make_error(ErrorCode::kNotFound, "cannot read image " + p);
     images.push_back(m);

@@ -132,6 +132,10 @@ TEST_F(CliHardening, FifoFrameIsRefusedNotWaitedOn) {
   ASSERT_EQ(::mkfifo((s / frames.front().file).c_str(), 0600), 0);
   fs::remove_all(s / "hdr");
   expect_refused(vdrig("hdr '" + s.string() + "'"), "is a FIFO");  // timed out (124) before
+  const std::string fifo = "'" + (s / frames.front().file).string() + "'";
+  expect_refused(
+      vdrig("calib intrinsics " + fifo + " " + fifo + " " + fifo + " --out '" + (dir_ / "c.yml").string() + "'"),
+      "is a FIFO");
 }
 
 // --- item 2: arguments that aborted -----------------------------------------------------------------------------
