@@ -2,7 +2,6 @@
 // bracket of a session).
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -14,6 +13,7 @@
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/calib/intrinsics.hpp"
 #include "vdrig/calib/response_recovery.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
@@ -76,6 +76,7 @@ Status run_intrinsics(const std::string& board, double square_m, const std::vect
     return usage("--board wants COLSxROWS inner corners, e.g. 9x6; got '" + board + "'");
   std::vector<cv::Mat> images;
   for (const auto& p : paths) {
+    VDRIG_TRY(check_regular_file(p));  // cv::imread would wait on a FIFO
     cv::Mat m = cv::imread(p, cv::IMREAD_GRAYSCALE);
     if (m.empty()) return make_error(ErrorCode::kNotFound, "cannot read image " + p);
     images.push_back(m);
@@ -123,15 +124,9 @@ Status run_merge(const std::string& response_path, int bits, const std::vector<s
                  const std::string& out, bool half) {
   ResponseCurve response;
   if (!response_path.empty()) {
-    std::ifstream in(response_path);
-    if (!in) return make_error(ErrorCode::kNotFound, "cannot read " + response_path);
-    nlohmann::json j;
-    try {
-      in >> j;
-    } catch (const nlohmann::json::exception& e) {
-      return make_error(ErrorCode::kCorrupt, response_path + ": " + e.what());
-    }
-    auto r = ResponseCurve::from_json(j);
+    auto j = read_json_file(response_path);
+    if (!j) return j.error();
+    auto r = ResponseCurve::from_json(j.value());
     if (!r) return r.error();
     response = std::move(*r);
     bits = response.bits();
@@ -184,10 +179,10 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
   return Status::ok();
 }
 
-Status run_session_hdr(const std::string& session_dir) {
+Status run_session_hdr(const std::string& session_dir, const pipeline::HdrMergeOptions& options) {
   auto session = capture::Session::open(session_dir);
   if (!session) return session.error();
-  VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
+  VDRIG_TRY(pipeline::merge_session_hdr(session.value(), options));
   std::printf("merged %d views -> %s\n", session->completed_view_count(), session->layout().hdr_dir().c_str());
   return Status::ok();
 }
@@ -254,11 +249,14 @@ const CommandRegistrar registrar([](CLI::App& root) {
   auto* hdr = root.add_subcommand("hdr", "high dynamic range merging: `hdr SESSION` or `hdr merge IMAGE:T ...`");
   hdr->require_subcommand(0, 1);
   auto hdr_session = std::make_shared<std::string>();
+  auto hdr_options = std::make_shared<pipeline::HdrMergeOptions>();
   hdr->add_option("session", *hdr_session, "session folder: merge every complete view into SESSION/hdr/");
-  hdr->callback([hdr, hdr_session] {
+  hdr->add_flag("--force", hdr_options->force,
+                "merge every view again (views whose HDR image is damaged are merged again anyway)");
+  hdr->callback([hdr, hdr_session, hdr_options] {
     if (!hdr->get_subcommands().empty()) return;
     if (hdr_session->empty()) finish(usage("hdr wants SESSION or the merge subcommand (see --help)"));
-    finish(run_session_hdr(*hdr_session));
+    finish(run_session_hdr(*hdr_session, *hdr_options));
   });
   {
     auto* cmd = hdr->add_subcommand("merge", "merge a bracket to relative radiance (OpenEXR: R, G, B, mask)");

@@ -1,6 +1,5 @@
 // vdrig capture: plan and run a capture session, or resume an interrupted one (the journal is the truth).
 #include <cstdio>
-#include <fstream>
 
 #include "commands.hpp"
 #include "progress.hpp"
@@ -8,6 +7,7 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/process_lock.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -31,7 +31,9 @@ struct CaptureArgs {
 Status run(const CaptureArgs& a) {
   auto registry = pipeline::full_registry();
   capture::CaptureOptions options;
-  options.disk_reserve_bytes = static_cast<uint64_t>(std::max(0.0, a.reserve_mb) * 1024 * 1024);
+  auto reserve = capture::disk_reserve_bytes_from_mib(a.reserve_mb);
+  if (!reserve) return reserve.error();
+  options.disk_reserve_bytes = reserve.value();
   std::optional<capture::Session> session;
   // One process drives a rig (process_lock.hpp: rig_lock_name); held until the capture returns, taken before the
   // rig is built or a session folder is made for it.
@@ -55,9 +57,9 @@ Status run(const CaptureArgs& a) {
     if (a.rig == "sim") {
       rc = sim::sim_rig_config({{"scene", a.scene}});
     } else {
-      std::ifstream in(a.rig);
-      rc = nlohmann::json::parse(in, nullptr, false);
-      if (!in || rc.is_discarded()) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config " + a.rig);
+      auto file = read_json_file(a.rig);
+      if (!file) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + file.error().message);
+      rc = std::move(file.value());
     }
     VDRIG_TRY(lock_rig(rc));
     auto rig = registry.make_rig(rc);

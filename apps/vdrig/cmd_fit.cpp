@@ -1,6 +1,11 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 
 #include "commands.hpp"
@@ -28,6 +33,25 @@ struct FitArgs {
   int threads = 0;
 };
 
+/// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
+/// checked before the fit, which can take hours, rather than when the map is written.
+Status check_output_writable(const fs::path& out) {
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    return make_error(ErrorCode::kInvalidArgument, "--out: cannot create folder " + dir.string() + ": " + ec.message());
+  if (fs::is_directory(out)) return make_error(ErrorCode::kInvalidArgument, "--out: " + out.string() + " is a folder");
+  std::string probe = (dir / ".vdrig-write-check-XXXXXX").string();
+  const int fd = ::mkstemp(probe.data());
+  if (fd < 0)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--out: cannot write in " + dir.string() + ": " + std::strerror(errno));
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return Status::ok();
+}
+
 Status run_fit(const FitArgs& a) {
   auto model = fitting::parse_model(a.model);
   if (!model) return model.error();
@@ -35,11 +59,17 @@ Status run_fit(const FitArgs& a) {
   if (!res) return res.error();
   if (a.residual != "absolute" && a.residual != "relative")
     return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
+  if (a.threads < 0 || a.threads > fitting::MapFitOptions::kMaxThreads)
+    return make_error(ErrorCode::kInvalidArgument, "--threads must be in [0, " +
+                                                       std::to_string(fitting::MapFitOptions::kMaxThreads) +
+                                                       "] (0: all cores), got " + std::to_string(a.threads));
   auto session = capture::Session::open(a.session);
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
   if (a.holdout < 0 || a.holdout >= n_views)
     return make_error(ErrorCode::kInvalidArgument, "--holdout must be in [0, " + std::to_string(n_views - 1) + "]");
+  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(model.value()->name()) : fs::path(a.out);
+  VDRIG_TRY(check_output_writable(out));
 
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
@@ -94,9 +124,6 @@ Status run_fit(const FitArgs& a) {
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
-  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
-  std::error_code ec;
-  if (out.has_parent_path()) fs::create_directories(out.parent_path(), ec);
   VDRIG_TRY(map->write(out));
 
   // Summary: median RMS over texels with a fit (and held-out RMS when views were held out).
@@ -144,7 +171,9 @@ const CommandRegistrar kFit([](CLI::App& root) {
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}));
   cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads,
+                  "worker threads (0 = all cores; at most " + std::to_string(fitting::MapFitOptions::kMaxThreads) + ")")
+      ->capture_default_str();
   cmd->callback([args] { finish(run_fit(*args)); });
 });
 

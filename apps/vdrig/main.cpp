@@ -38,8 +38,11 @@ int main(int argc, char** argv) {
   CLI::App app{"vdrig: capture how a surface looks from every direction, fit it, and play it back"};
   app.require_subcommand(1);
   std::string level = "info";
-  app.add_option("--log-level", level, "trace, debug, info, warn, error, off")->capture_default_str();
-  app.parse_complete_callback([&] { vdrig::log::set_level(level); });
+  app.add_option("--log-level", level, vdrig::log::kLevelNames)->capture_default_str();
+  app.parse_complete_callback([&] {
+    // An unknown level would silence everything, errors included: refuse it as a usage error (exit 2).
+    vdrig::app::finish(vdrig::log::set_level(level));
+  });
   for (auto& setup : vdrig::app::registered()) setup(app);
   CLI11_PARSE(app, argc, argv);
   return 0;

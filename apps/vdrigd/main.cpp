@@ -2,9 +2,10 @@
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
-#include <fstream>
+#include <cstdio>
 
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -33,23 +34,31 @@ int main(int argc, char** argv) {
   app.add_option("--scene", scene, "simulator scene when no --rig is given")->capture_default_str();
   app.add_option("--allowed-gid", allowed_gid, "also accept clients of this group");
   app.add_option("--reserve-mb", reserve_mb, "free disk space to keep, MiB")->capture_default_str();
-  app.add_option("--log-level", level, "trace, debug, info, warn, error")->capture_default_str();
+  app.add_option("--log-level", level, log::kLevelNames)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  log::set_level(level);
+  if (auto s = log::set_level(level); !s) {
+    std::fprintf(stderr, "vdrigd: %s\n", s.error().message.c_str());
+    return 2;
+  }
   auto logger = log::get("vdrigd");
+  auto reserve = capture::disk_reserve_bytes_from_mib(reserve_mb);
+  if (!reserve) {
+    logger->error("{}", reserve.error().message);
+    return 2;
+  }
 
   capture::DaemonConfig config;
   config.runtime_dir = runtime_dir;
   config.sessions_dir = sessions_dir;
   if (allowed_gid >= 0) config.allowed_gid = static_cast<gid_t>(allowed_gid);
-  config.capture.disk_reserve_bytes = static_cast<uint64_t>(std::max(0.0, reserve_mb) * 1024 * 1024);
+  config.capture.disk_reserve_bytes = reserve.value();
   if (!rig_file.empty()) {
-    std::ifstream in(rig_file);
-    config.rig_config = nlohmann::json::parse(in, nullptr, false);
-    if (!in || config.rig_config.is_discarded()) {
-      logger->error("cannot read rig config {}", rig_file);
+    auto file = read_json_file(rig_file);
+    if (!file) {
+      logger->error("cannot read rig config: {}", file.error().message);
       return 2;
     }
+    config.rig_config = std::move(file.value());
   } else {
     config.rig_config = sim::sim_rig_config({{"scene", scene}});
   }

@@ -1,9 +1,9 @@
 #include "vdrig/calib/extrinsics.hpp"
+#include "vdrig/core/file_read.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -391,11 +391,9 @@ Status write_views_json(const std::filesystem::path& path, const ViewsFile& file
 
 Result<ViewsFile> read_views_json(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path)) return make_error(ErrorCode::kNotFound, "no " + path.string());
-  std::ifstream in(path);
-  if (!in) return make_error(ErrorCode::kIo, "cannot read " + path.string());
-  auto j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, path.string() + ": not valid JSON");
-  auto f = views_from_json(j);
+  auto j = read_json_file(path);
+  if (!j) return j.error();
+  auto f = views_from_json(j.value());
   if (!f) return make_error(ErrorCode::kCorrupt, path.string() + ": " + f.error().message);
   return f;
 }

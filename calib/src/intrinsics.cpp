@@ -39,6 +39,18 @@ Fit run_calibration(const std::vector<std::vector<cv::Point3f>>& object,
 
 }  // namespace
 
+bool IntrinsicsOptions::is_valid(std::string* why) const {
+  auto fail = [why](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(outlier_factor > 1)) return fail("outlier factor must be > 1");
+  if (subpix_half_window < 1 || subpix_half_window > kMaxSubpixHalfWindow)
+    return fail("subpixel half window must be in [1, " + std::to_string(kMaxSubpixHalfWindow) + "] px, got " +
+                std::to_string(subpix_half_window));
+  return true;
+}
+
 size_t IntrinsicsResult::used_views() const {
   return static_cast<size_t>(std::count_if(views.begin(), views.end(), [](const auto& v) { return v.used; }));
 }
@@ -50,10 +62,19 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
   if (board_cols < 2 || board_rows < 2 || board_cols == board_rows)
     return bad("board needs at least 2x2 inner corners and cols != rows (a square board's orientation is ambiguous)");
   if (!(square_m > 0)) return bad("square size must be positive (metres)");
-  if (!(opt.outlier_factor > 1)) return bad("outlier factor must be > 1");
+  std::string why;
+  if (!opt.is_valid(&why)) return bad(why);
   auto log = log::get("calib");
 
   const cv::Size size = images[0].size();
+  // cv::cornerSubPix asserts that its window (plus a margin) fits the image, and a board of n corners needs a few
+  // pixels per square to be found at all: a smaller image is refused here rather than aborting inside OpenCV.
+  const int min_side = std::max({2 * opt.subpix_half_window + 5, 4 * (board_cols + 1), 4 * (board_rows + 1)});
+  if (size.width < min_side || size.height < min_side)
+    return bad("images are " + std::to_string(size.width) + "x" + std::to_string(size.height) + " px; a " +
+               std::to_string(board_cols) + "x" + std::to_string(board_rows) +
+               " board with a subpixel half window of " + std::to_string(opt.subpix_half_window) + " needs at least " +
+               std::to_string(min_side) + " px a side");
   IntrinsicsResult res;
   res.board_cols = board_cols;
   res.board_rows = board_rows;
@@ -83,7 +104,7 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
     v.board_found = cv::findChessboardCorners(grey, {board_cols, board_rows}, corners,
                                               cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
     if (v.board_found) {
-      const int hw = std::max(1, opt.subpix_half_window);
+      const int hw = opt.subpix_half_window;
       cv::cornerSubPix(grey, corners, {hw, hw}, {-1, -1},
                        cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.0001));
       corners_of[i] = std::move(corners);
@@ -170,7 +191,6 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
     }
     break;
   }
-  std::string why;
   if (!res.camera.is_valid(&why)) return make_error(ErrorCode::kInternal, "calibration gave an invalid camera: " + why);
   return res;
 }

@@ -24,6 +24,14 @@ bool CaptureOptions::is_valid(std::string* why) const {
   return effective_bracket().is_valid(why);
 }
 
+Result<uint64_t> disk_reserve_bytes_from_mib(double mib) {
+  constexpr double kMaxMib = 1 << 20;
+  if (!(mib >= 0 && mib <= kMaxMib))  // false for NaN too
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--reserve-mb must be a number of MiB in [0, 1048576], got " + std::to_string(mib));
+  return static_cast<uint64_t>(mib * 1024 * 1024);
+}
+
 BracketSpec CaptureOptions::effective_bracket() const {
   if (bracket) return *bracket;
   BracketSpec b;

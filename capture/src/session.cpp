@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 
@@ -173,10 +174,9 @@ Result<Session> Session::open(const fs::path& dir) {
   Session s;
   s.dir_ = dir;
   {
-    std::ifstream in(manifest_path);
-    json j = json::parse(in, nullptr, false);
-    if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": not valid JSON");
-    auto m = Manifest::from_json(j);
+    auto j = read_json_file(manifest_path);
+    if (!j) return j.error();
+    auto m = Manifest::from_json(j.value());
     if (!m) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": " + m.error().message);
     s.manifest_ = std::move(m.value());
   }

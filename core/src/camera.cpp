@@ -2,6 +2,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "vdrig/core/file_read.hpp"
+
 namespace vdrig {
 
 Vec2d CameraModel::distort(const Vec2d& u) const {
@@ -47,6 +49,7 @@ bool CameraModel::is_valid(std::string* why) const {
 
 Result<CameraModel> CameraModel::load_yaml(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path)) return make_error(ErrorCode::kNotFound, "no camera file " + path.string());
+  VDRIG_TRY(check_regular_file(path));  // cv::FileStorage would wait on a FIFO
   try {
     cv::FileStorage fs(path.string(), cv::FileStorage::READ);
     if (!fs.isOpened()) return make_error(ErrorCode::kCorrupt, "cannot parse " + path.string());

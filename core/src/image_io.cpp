@@ -13,6 +13,8 @@
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
+#include "vdrig/core/file_read.hpp"
+
 namespace vdrig {
 namespace fs = std::filesystem;
 
@@ -78,14 +80,26 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
   return commit_temporary(tmp, path);
 }
 
-Result<ExrImage> read_exr(const fs::path& path) {
-  if (!fs::exists(path)) return make_error(ErrorCode::kNotFound, "no such file " + path.string());
+Result<ExrImage> read_exr(const fs::path& path, size_t max_bytes) {
+  // OpenEXR opens the path itself: refuse a directory or FIFO first (a FIFO would block it forever).
+  VDRIG_TRY(check_regular_file(path));
   try {
     Imf::InputFile in(path.c_str());
     const Imath::Box2i dw = in.header().dataWindow();
     ExrImage img;
     img.width = dw.max.x - dw.min.x + 1;
     img.height = dw.max.y - dw.min.y + 1;
+    if (max_bytes != 0) {
+      size_t channels = 0;
+      for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) ++channels;
+      const double bytes = static_cast<double>(img.width) * img.height * static_cast<double>(channels) * sizeof(float);
+      if (bytes > static_cast<double>(max_bytes))
+        return make_error(ErrorCode::kInvalidArgument,
+                          path.string() + ": " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                              " with " + std::to_string(channels) + " channels needs " +
+                              std::to_string(static_cast<long long>(bytes / (1 << 20))) + " MiB; at most " +
+                              std::to_string(max_bytes >> 20) + " MiB are read");
+    }
     Imf::FrameBuffer fb;
     for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) {
       cv::Mat plane(img.height, img.width, CV_32FC1);
@@ -128,11 +142,44 @@ Status write_png(const fs::path& path, const cv::Mat& image) {
   return write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
 }
 
+namespace {
+
+// read_png's limits (documented in image_io.hpp).
+constexpr uint64_t kMaxPngSide = 16384;
+constexpr uint64_t kMaxPngPixels = 100'000'000;
+constexpr size_t kMaxImageFileBytes = size_t{1} << 30;
+
+/// Width and height from a PNG's IHDR chunk (big-endian, right after the 8-byte signature), or {0, 0} when the bytes
+/// do not start like a PNG (another format OpenCV decodes).
+std::pair<uint64_t, uint64_t> png_header_size(const std::string& bytes) {
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (bytes.size() < 24 || std::memcmp(bytes.data(), kSignature, 8) != 0 || bytes.compare(12, 4, "IHDR") != 0)
+    return {0, 0};
+  auto be32 = [&](size_t at) {
+    uint64_t v = 0;
+    for (size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  return {be32(16), be32(20)};
+}
+
+}  // namespace
+
 Result<cv::Mat> read_png(const fs::path& path) {
-  if (!fs::exists(path)) return make_error(ErrorCode::kNotFound, "no such file " + path.string());
+  // Read through the regular-file check (a FIFO frame would hang cv::imread) and size the image from its header
+  // before decoding, so an oversized frame is refused without allocating it.
+  auto bytes = read_regular_file(path, kMaxImageFileBytes);
+  if (!bytes) return bytes.error();
+  const auto [width, height] = png_header_size(bytes.value());
+  if (width > kMaxPngSide || height > kMaxPngSide || width * height > kMaxPngPixels)
+    return make_error(ErrorCode::kInvalidArgument, path.string() + " is a " + std::to_string(width) + "x" +
+                                                       std::to_string(height) + " PNG; at most " +
+                                                       std::to_string(kMaxPngSide) + " px a side and " +
+                                                       std::to_string(kMaxPngPixels / 1000000) + " Mpx are read");
   cv::Mat m;
   try {
-    m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat buffer(1, static_cast<int>(bytes->size()), CV_8UC1, bytes->data());
+    m = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     return make_error(ErrorCode::kCorrupt, "cannot decode " + path.string() + ": " + e.what());
   }

@@ -39,6 +39,10 @@ Result<std::vector<int>> resolve_held_out(const MapFitOptions& options, int view
   if (!options.model) return make_error(ErrorCode::kInvalidArgument, "fit_parameter_map: no model");
   if (options.min_observations < 1)
     return make_error(ErrorCode::kInvalidArgument, "fit_parameter_map: min_observations must be >= 1");
+  if (options.threads < 0 || options.threads > MapFitOptions::kMaxThreads)
+    return make_error(ErrorCode::kInvalidArgument, "threads must be in [0, " +
+                                                       std::to_string(MapFitOptions::kMaxThreads) +
+                                                       "] (0: all cores), got " + std::to_string(options.threads));
   std::vector<int> held_out = options.held_out;
   std::sort(held_out.begin(), held_out.end());
   held_out.erase(std::unique(held_out.begin(), held_out.end()), held_out.end());

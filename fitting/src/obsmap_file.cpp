@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <bit>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
 
@@ -381,6 +382,23 @@ struct ObsMapWriter::Impl {
   }
 };
 
+namespace {
+
+/// The process's umask, read without changing it (umask(2) would race with other threads creating files).
+mode_t process_umask() {
+  std::FILE* f = std::fopen("/proc/self/status", "re");
+  unsigned mask = 022;
+  if (f) {
+    char line[256];
+    while (std::fgets(line, sizeof line, f))
+      if (std::sscanf(line, "Umask: %o", &mask) == 1) break;
+    std::fclose(f);
+  }
+  return static_cast<mode_t>(mask);
+}
+
+}  // namespace
+
 Result<ObsMapWriter> ObsMapWriter::create(const fs::path& path, const ObservationMapSpec& spec, int views,
                                           const ObsFileOptions& options) {
   std::string why;
@@ -408,6 +426,8 @@ Result<ObsMapWriter> ObsMapWriter::create(const fs::path& path, const Observatio
   const int fd = ::mkstemp(tmpl.data());
   if (fd < 0) return io_error("creating a temporary file in", dir, errno);
   impl->out = Fd(fd);
+  // mkstemp creates 0600; the finished file gets the mode of vdrig's other outputs (0666 less the umask).
+  if (::fchmod(fd, 0666 & ~process_umask()) != 0) return io_error("setting the mode of", tmpl, errno);
   impl->tmp_path = tmpl;
   // The spill file is unlinked at once: the kernel frees it when the writer closes it or the process dies.
   const fs::path spill_dir = options.spill_dir.empty() ? dir : options.spill_dir;

@@ -107,8 +107,24 @@ Status ParameterMap::write(const std::filesystem::path& path, ExrPixelType type)
   return write_exr(path, image_, type);
 }
 
+namespace {
+
+Status check_model_values(const ParameterMap& map, const std::filesystem::path& path) {
+  // Every value is already known to be finite; the model judges its own ranges.
+  for (int t = 0; t < map.texels_t(); ++t)
+    for (int s = 0; s < map.texels_s(); ++s) {
+      const std::string problem = map.model().check_parameters(map.parameters(s, t));
+      if (!problem.empty())
+        return make_error(ErrorCode::kCorrupt, path.string() + ": texel " + std::to_string(s) + "," +
+                                                   std::to_string(t) + ": " + problem);
+    }
+  return Status::ok();
+}
+
+}  // namespace
+
 Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
-  auto img = read_exr(path);
+  auto img = read_exr(path, kMaxReadBytes);
   if (!img) return img.error();
   const auto& sa = img->string_attributes;
   const auto& na = img->number_attributes;
@@ -127,8 +143,17 @@ Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
   for (const auto& name : quality_channels()) names.push_back(name);
   for (const auto& name : names)
     if (img->find(name) < 0) return make_error(ErrorCode::kCorrupt, path.string() + ": missing channel " + name);
+  // A NaN or infinite parameter renders garbage: refuse the map, naming the first one.
+  for (size_t c = 0; c < img->channels.size(); ++c) {
+    cv::Point at;
+    if (!cv::checkRange(img->channels[c], true, &at))
+      return make_error(ErrorCode::kCorrupt, path.string() + ": channel " + img->channel_names[c] +
+                                                 " is not finite at texel " + std::to_string(at.x) + "," +
+                                                 std::to_string(at.y));
+  }
   map.image_ = std::move(img.value());
   map.index_parameters();
+  VDRIG_TRY(check_model_values(map, path));
   return map;
 }
 

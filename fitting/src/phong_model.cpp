@@ -161,6 +161,15 @@ std::vector<double> PhongModel::parameters_of(const PhongParams& params) const {
   return p;
 }
 
+std::string PhongModel::check_parameters(std::span<const double> parameters) const {
+  const Layout layout{lobes_, shared_shininess_};
+  for (int k = 0; k < (shared_shininess_ ? 1 : lobes_); ++k) {
+    const double m = parameters[layout.shininess(k)];
+    if (m < 0) return "Phong exponent " + channels()[layout.shininess(k)] + " is negative (" + std::to_string(m) + ")";
+  }
+  return {};
+}
+
 Vec3d PhongModel::evaluate(std::span<const double> parameters, const Vec3d& v) const {
   return params_of(parameters).evaluate(v);
 }

@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <atomic>
-#include <fstream>
 #include <mutex>
 #include <thread>
 
 #include "ground_truth.hpp"
 #include "vdrig/calib/hdr.hpp"
+#include "vdrig/core/file_read.hpp"
+#include "vdrig/core/log.hpp"
 
 namespace vdrig::pipeline {
 namespace fs = std::filesystem;
@@ -15,10 +16,9 @@ namespace fs = std::filesystem;
 Result<ResponseCurve> session_response(const capture::Session& session) {
   const fs::path calibrated = session.layout().response_file();
   if (fs::exists(calibrated)) {
-    std::ifstream in(calibrated);
-    auto j = nlohmann::json::parse(in, nullptr, false);
-    if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, calibrated.string() + ": not valid JSON");
-    return ResponseCurve::from_json(j);
+    auto j = read_json_file(calibrated);
+    if (!j) return j.error();
+    return ResponseCurve::from_json(j.value());
   }
   auto truth = ground_truth_of(session.manifest().rig_config);
   if (!truth) return truth.error();
@@ -28,7 +28,7 @@ Result<ResponseCurve> session_response(const capture::Session& session) {
   return (*truth)->response;
 }
 
-Status merge_session_hdr(const capture::Session& session) {
+Status merge_session_hdr(const capture::Session& session, const HdrMergeOptions& options) {
   auto response = session_response(session);
   if (!response) return response.error();
   const capture::SessionLayout layout = session.layout();
@@ -42,7 +42,12 @@ Status merge_session_hdr(const capture::Session& session) {
   auto worker = [&] {
     for (size_t i = next++; i < views.size(); i = next++) {
       const int v = views[i].index;
-      if (!session.view_complete(v) || fs::exists(layout.hdr_file(v))) continue;
+      if (!session.view_complete(v)) continue;
+      if (!options.force && fs::exists(layout.hdr_file(v))) {
+        auto existing = calib::read_hdr_exr(layout.hdr_file(v));
+        if (existing) continue;
+        log::get("calib")->warn("view {}: {}; merging it again", v, existing.error().message);
+      }
       std::vector<Frame> frames;
       Status status;
       for (const auto& rec : session.frames_of_view(v)) {

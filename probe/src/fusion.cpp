@@ -110,7 +110,9 @@ bool FusionOptions::is_valid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (height < 0) return fail("fusion height must be >= 0 (0: the probes'), got " + std::to_string(height));
+  if (height < 0 || height > kMaxHeight)
+    return fail("fusion height must be in [0, " + std::to_string(kMaxHeight) + "] rows (0: the probes'), got " +
+                std::to_string(height));
   if (!(angular_exponent >= 0) || !std::isfinite(angular_exponent))
     return fail("angular exponent must be finite and >= 0, got " + std::to_string(angular_exponent));
   if (!(resolution_exponent >= 0) || !std::isfinite(resolution_exponent))

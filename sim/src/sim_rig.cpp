@@ -51,8 +51,8 @@ void read_camera(Settings& parent, const json& section, SimConfig& c) {
   s.reject_unknown({"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits", "response",
                     "full_well_e", "read_noise_e", "vignetting"});
   CameraModel& m = c.camera;
-  m.width = read_int(s, "width", m.width);
-  m.height = read_int(s, "height", m.height);
+  m.width = static_cast<int>(s.integer("width", m.width, 1, SimConfig::kMaxCameraSide));
+  m.height = static_cast<int>(s.integer("height", m.height, 1, SimConfig::kMaxCameraSide));
   m.fx = s.number("fx", m.fx);
   m.fy = s.number("fy", m.fy);
   m.cx = s.number("cx", (m.width - 1) / 2.0);
@@ -114,6 +114,8 @@ bool SimConfig::is_valid(std::string* why) const {
     return false;
   };
   if (!camera.is_valid(why)) return false;
+  if (camera.width > kMaxCameraSide || camera.height > kMaxCameraSide)
+    return fail("camera width and height must be at most " + std::to_string(kMaxCameraSide) + " px");
   if (!sensor.is_valid(why)) return false;
   if (samples_per_axis < 1 || samples_per_axis > 8) return fail("samples_per_axis must be 1..8");
   if (time_scale < 0) return fail("time_scale must be >= 0");

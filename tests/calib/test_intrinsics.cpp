@@ -166,5 +166,24 @@ TEST(IntrinsicsInput, BadInputsAreErrorValues) {
   EXPECT_NE(r.error().message.find("612x459"), std::string::npos) << r.error().message;
 }
 
+TEST(IntrinsicsLimits, TinyImagesAndHugeSubpixelWindowsAreRefusedNotAsserted) {
+  // Issue #18: a 2x2 image or --subpix-half-window 100000 ended in an OpenCV assertion (abort).
+  IntrinsicsOptions huge;
+  huge.subpix_half_window = 100000;
+  std::string why;
+  EXPECT_FALSE(huge.is_valid(&why));
+  EXPECT_NE(why.find("half window"), std::string::npos) << why;
+  EXPECT_TRUE(IntrinsicsOptions{}.is_valid(&why)) << why;
+  const std::vector<cv::Mat> tiny(3, cv::Mat(2, 2, CV_8UC1, cv::Scalar::all(128)));
+  auto r = calibrate_intrinsics(tiny, 9, 6, 0.025);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(r.error().message.find("px a side"), std::string::npos) << r.error().message;
+  const std::vector<cv::Mat> grey(3, cv::Mat(480, 640, CV_8UC1, cv::Scalar::all(128)));
+  auto w = calibrate_intrinsics(grey, 9, 6, 0.025, huge);
+  ASSERT_FALSE(w);
+  EXPECT_EQ(w.error().code, ErrorCode::kInvalidArgument);
+}
+
 }  // namespace
 }  // namespace vdrig::calib

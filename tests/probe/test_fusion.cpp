@@ -354,5 +354,16 @@ TEST(Fuse, RejectsBadInput) {
   EXPECT_TRUE(FusionOptions{}.is_valid());
 }
 
+TEST(FusionOptions, HeightIsLimited) {
+  // Issue #18: `probe fuse --height 100000` asked for a 200000 x 100000 map (bad_alloc).
+  FusionOptions o;
+  o.height = FusionOptions::kMaxHeight;
+  EXPECT_TRUE(o.is_valid());
+  o.height = 100000;
+  std::string why;
+  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_NE(why.find(std::to_string(FusionOptions::kMaxHeight)), std::string::npos) << why;
+}
+
 }  // namespace
 }  // namespace vdrig::probe

@@ -201,5 +201,19 @@ TEST(SimFaults, SlowWritesAndDeterminism) {
   EXPECT_GT(cv::norm(fa->image, a.camera->capture()->image, cv::NORM_INF), 0.0);  // next frame: new noise
 }
 
+TEST(SimConfig, CameraSizeIsLimited) {
+  // Issue #18: a 100000 x 100000 simulated camera ended in bad_alloc after the session folder was made.
+  auto huge = SimConfig::from_json({{"camera", {{"width", 100000}, {"height", 100000}}}});
+  ASSERT_FALSE(huge);
+  EXPECT_EQ(huge.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(huge.error().message.find(std::to_string(SimConfig::kMaxCameraSide)), std::string::npos)
+      << huge.error().message;
+  SimConfig c;
+  c.camera.width = SimConfig::kMaxCameraSide + 1;
+  std::string why;
+  EXPECT_FALSE(c.is_valid(&why));
+  EXPECT_TRUE(SimConfig::from_json({{"camera", {{"width", 320}, {"height", 240}}}}));
+}
+
 }  // namespace
 }  // namespace vdrig::sim

@@ -23,6 +23,12 @@ struct IntrinsicsOptions {
   /// cornerSubPix half window, pixels: 5 gives an 11x11 window. The window must stay within about half a square's
   /// image: one reaching the neighbouring corners biases the refined corners (docs/calib.md, Intrinsics).
   int subpix_half_window = 5;
+
+  /// Largest subpix_half_window (a 129 x 129 window); the images must also be larger than the window (see
+  /// calibrate_intrinsics).
+  static constexpr int kMaxSubpixHalfWindow = 64;
+  /// False with the reason for an outlier factor not above 1 or a half window outside [1, kMaxSubpixHalfWindow].
+  bool is_valid(std::string* why = nullptr) const;
 };
 
 /// One input image's part in the calibration.
@@ -62,8 +68,9 @@ struct IntrinsicsResult {
 /// Finds the inner corners of a `board_cols` x `board_rows` chessboard (cv::findChessboardCorners, refined by
 /// cv::cornerSubPix) in every image (8-bit, grey or BGR, all the same size) and fits the full Brown-Conrady model
 /// (k1, k2, p1, p2, k3) with cv::calibrateCamera (the overload reporting standard deviations and per-view errors).
-/// Errors: kInvalidArgument for no images, bad board or square size, differing image sizes, unsupported types, or
-/// fewer than 3 views with the board found.
+/// Errors: kInvalidArgument for invalid options, no images, bad board or square size, differing image sizes,
+/// unsupported types, images too small for the board and the corner window (each side at least
+/// max(2 subpix_half_window + 5, 4 (corners + 1)) pixels), or fewer than 3 views with the board found.
 Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, int board_cols, int board_rows,
                                               double square_m, const IntrinsicsOptions& options = {});
 

@@ -53,6 +53,10 @@ struct CaptureOptions {
   BracketSpec effective_bracket() const;
 };
 
+/// disk_reserve_bytes from a figure in MiB given by a user (--reserve-mb): a finite number in [0, 2^20] (1 TiB);
+/// anything else, NaN and negatives included (which used to turn the disk check off), is kInvalidArgument.
+Result<uint64_t> disk_reserve_bytes_from_mib(double mib);
+
 /// Captures every view of the session's manifest that is not yet complete, in manifest order. The session is locked
 /// for the run (process_lock.hpp) unless `session` holds its lock already; another process capturing it is
 /// kInvalidArgument "session DIR is in use by PID n" before anything moves. Returns kCancelled

@@ -32,12 +32,16 @@ enum class ExrPixelType { kHalf, kFloat };
 
 /// Writes to `path` atomically (a temporary file renamed into place).
 Status write_exr(const std::filesystem::path& path, const ExrImage& image, ExrPixelType type = ExrPixelType::kFloat);
-/// Reads every channel as float; a missing, truncated or non-EXR file is an error value, never an abort.
-Result<ExrImage> read_exr(const std::filesystem::path& path);
+/// Reads every channel as float; a missing, truncated or non-EXR file (or one that is not a regular file) is an
+/// error value, never an abort. When `max_bytes` is not 0, an image whose float planes would take more (width x
+/// height x channels x 4 B, from the header) is kInvalidArgument before any pixel is allocated.
+Result<ExrImage> read_exr(const std::filesystem::path& path, size_t max_bytes = 0);
 
 /// Writes an 8- or 16-bit image (1 or 3 channels, BGR order for colour as OpenCV) atomically.
 Status write_png(const std::filesystem::path& path, const cv::Mat& image);
-/// Reads an 8- or 16-bit PNG unchanged (depth kept); error if missing or undecodable.
+/// Reads an 8- or 16-bit PNG unchanged (depth kept), or any other format OpenCV decodes. Errors: missing, not a
+/// regular file, undecodable, a file over 1 GiB, or a PNG whose header states more than 16384 px a side or 100 Mpx
+/// (kInvalidArgument, refused before decoding; the largest sensors vdrig drives are well inside).
 Result<cv::Mat> read_png(const std::filesystem::path& path);
 
 }  // namespace vdrig

@@ -42,7 +42,8 @@ struct MapFitOptions {
   /// "direction X Y Z" (unit, toward a light at infinity); empty when none was found.
   bool shared_lights = false;
   LightEstimationOptions lights;
-  int threads = 0;           // 0 = hardware concurrency
+  static constexpr int kMaxThreads = 256;
+  int threads = 0;           // 0 = hardware concurrency; at most kMaxThreads (each worker holds a tile's fit state)
   int min_observations = 6;  // texels with fewer valid observations get zeros and n = their count
   std::function<void(const MapFitProgress&)> on_progress;  // called from worker threads, serialised
 };

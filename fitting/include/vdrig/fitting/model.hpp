@@ -57,6 +57,10 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// (parameters.size() == parameter_count()).
   virtual Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const = 0;
 
+  /// The problem with one texel's stored parameters (all finite) as a phrase ("m is negative (-2)"), or "" when the
+  /// model can render them. ParameterMap::read refuses a map with any such texel rather than render garbage.
+  virtual std::string check_parameters(std::span<const double> /*parameters*/) const { return {}; }
+
   /// GLSL source of `vec3 model(ivec2 t, vec3 v)`: the same radiance as evaluate() for texel t toward unit v, where
   /// `parameter(i)` is a GLSL float expression reading parameter i of texel t. The viewer compiles it into its
   /// fragment shader.

@@ -62,7 +62,12 @@ class ParameterMap {
   void set_source_session(const std::string& s) { image_.string_attributes["vdrig.source_session"] = s; }
 
   Status write(const std::filesystem::path& path, ExrPixelType type = ExrPixelType::kFloat) const;
-  /// kCorrupt when the file is not a parameter map of a registered model or lacks one of the model's channels.
+  /// Largest map read(): its float channels may take at most this much (an 8192 x 8192 SH map is over 10 GB).
+  static constexpr size_t kMaxReadBytes = size_t{4} << 30;
+  /// Reads a map written by write(). Errors: kInvalidArgument for a map over kMaxReadBytes (refused from the
+  /// header, before allocating); kCorrupt for a file that is not a parameter map of a registered model, lacks one of
+  /// the model's channels, holds a NaN or infinite value in any channel, or a texel the model refuses
+  /// (ReflectanceModel::check_parameters, e.g. a negative Phong exponent).
   static Result<ParameterMap> read(const std::filesystem::path& path);
 
  private:

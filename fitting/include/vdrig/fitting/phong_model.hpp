@@ -36,6 +36,7 @@ class PhongModel : public ReflectanceModel {
   void write_attributes(std::map<std::string, double>& number_attributes) const override;
   Result<ModelPtr> with_attributes(const std::map<std::string, double>& number_attributes) const override;
   Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
+  std::string check_parameters(std::span<const double> parameters) const override;  // m >= 0
   std::string glsl(const std::function<std::string(int parameter)>& parameter) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
 

@@ -25,8 +25,10 @@ struct ObsMapBuildOptions {
 };
 /// Streams the session's HDR views into an observation-map file (fitting/obsmap_file.hpp, docs/obsmap.md): one HDR
 /// image and one view's observations in memory at a time, so any resolution builds with bounded memory. Nothing is
-/// at `path` unless it succeeds. Errors: an unreadable HDR view (kNotFound/kCorrupt: run `vdrig hdr` first), a full
-/// disk (kNoSpace), invalid sizes (kInvalidArgument).
+/// at `path` unless it succeeds. Errors: an unreadable HDR view (kNotFound/kCorrupt: run `vdrig hdr` first), an HDR
+/// view of another size than the camera (kCorrupt), a full disk (kNoSpace), invalid sizes (kInvalidArgument).
+/// Pixels with a NaN or infinite channel (and their neighbours) are masked, never sampled, and counted in the log;
+/// build_session_obsmap does the same.
 Status build_session_obsmap_file(const capture::Session& session, int texels_s, int texels_t,
                                  const std::filesystem::path& path, const ObsMapBuildOptions& options = {});
 

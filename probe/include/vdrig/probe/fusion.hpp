@@ -53,7 +53,9 @@ cv::Mat proxy_depth(const Probe& probe, const ProxySphere& sphere);
 
 /// How probes are weighted when fused (see fuse()). Validated once by is_valid.
 struct FusionOptions {
-  /// Rows of the fused map (width twice that); 0 keeps the probes' height.
+  /// Largest `height`: a 16384 x 8192 RGB float map with its depth and weights is about 2 GB.
+  static constexpr int kMaxHeight = 8192;
+  /// Rows of the fused map (width twice that); 0 keeps the probes' height. At most kMaxHeight.
   int height = 0;
   /// Angular agreement weight ((1 + w . w_i) / 2)^angular_exponent, where w is the direction from the scene point
   /// to the new position and w_i the direction from the point to probe i (the thesis' eq. 5.5 orders probes by
@@ -73,8 +75,8 @@ struct FusionOptions {
   /// four nearest pixels is used, so that depth edges do not hide visible points).
   double occlusion_tolerance = 0.02;
 
-  /// False with the reason for a negative height, negative exponents, min_cosine outside [-1, 1), a non-positive
-  /// min distance or a negative tolerance.
+  /// False with the reason for a negative height or one above kMaxHeight, negative exponents, min_cosine outside [-1,
+  /// 1), a non-positive min distance or a negative tolerance.
   bool is_valid(std::string* why = nullptr) const;
 };
 

@@ -45,6 +45,9 @@ struct SimFaults {
 };
 
 struct SimConfig {
+  /// Largest simulated image side, pixels ("camera" width and height): a frame, its radiance and the ray table
+  /// (samples_per_axis^2 rays a pixel) must fit in memory; at 4096 x 4096 and 2 samples a side that is about 1.5 GB.
+  static constexpr int kMaxCameraSide = 4096;
   std::string scene = "patchwork";
   CameraModel camera{640, 480, 800.0, 800.0, 319.5, 239.5, -0.08, 0.02, 0.0, 0.0, 0.0};
   SensorSettings sensor;
