@@ -37,6 +37,8 @@ run_fuzzers() {
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
   export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  # Readable stack traces (clang 16's runtimes look for a symbolizer of their own version, absent here).
+  if command -v llvm-symbolizer >/dev/null; then export ASAN_SYMBOLIZER_PATH; ASAN_SYMBOLIZER_PATH=$(command -v llvm-symbolizer); fi
   for target in build/fuzz/fuzz/fuzz_*; do
     name=${target##*/fuzz_}
     [ "$name" = make_corpus ] && continue

@@ -1,12 +1,12 @@
 // ParameterMap::read on an OpenEXR file (fitted maps: header attributes name the model, channels hold it); a map it
 // accepts is evaluated at a few texels as the viewer and renderer do.
-#include "fuzz_support.hpp"
+#include "fuzz_exr.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 
 using namespace vdrig;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static const std::filesystem::path path = fuzz::scratch_dir() / "map.exr";
+  static const std::filesystem::path path = fuzz::exr_scratch_file("map.exr");
   fuzz::write_bytes(path, data, size);
   auto map = fitting::ParameterMap::read(path);
   if (!map) return 0;

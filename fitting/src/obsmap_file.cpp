@@ -656,9 +656,11 @@ Result<ObsTile> ObsMapReader::read_tile(int tile_s, int tile_t) const {
   tile.radiance_.resize(3 * n);
   tile.direction_.resize(3 * n);
   tile.flags_.resize(n);
-  std::memcpy(tile.radiance_.data(), raw.data(), 12 * n);
-  std::memcpy(tile.direction_.data(), raw.data() + 12 * n, 12 * n);
-  std::memcpy(tile.flags_.data(), raw.data() + 24 * n, n);
+  if (n > 0) {  // a map of 0 views has empty tiles (and null data pointers, which memcpy must not get)
+    std::memcpy(tile.radiance_.data(), raw.data(), 12 * n);
+    std::memcpy(tile.direction_.data(), raw.data() + 12 * n, 12 * n);
+    std::memcpy(tile.flags_.data(), raw.data() + 24 * n, n);
+  }
   return tile;
 }
 

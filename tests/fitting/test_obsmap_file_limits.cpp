@@ -112,6 +112,21 @@ TEST_F(ObsFileLimits, WriterRefusesTilesTheReaderWouldRefuse) {
   EXPECT_TRUE(ObsMapWriter::create(dir_ / "big.vdobs", spec, 20000, options));
 }
 
+TEST_F(ObsFileLimits, MapOfNoViewsReadsEmptyTiles) {
+  // Found by fuzz_vdobs: its tiles are empty, and read_tile passed their null data pointers to memcpy (undefined
+  // behaviour, reported by the ASan + UBSan build).
+  ObservationMapSpec spec;
+  spec.texels_s = 3;
+  spec.texels_t = 2;
+  ASSERT_TRUE(write_obsmap_file(ObservationMap(spec, 0), dir_ / "none.vdobs"));
+  auto reader = ObsMapReader::open(dir_ / "none.vdobs");
+  ASSERT_TRUE(reader) << reader.error().describe();
+  auto tile = reader->read_tile(0, 0);
+  ASSERT_TRUE(tile) << tile.error().describe();
+  EXPECT_EQ(tile->views(), 0);
+  EXPECT_EQ(tile->texel(1, 1).size(), 0u);
+}
+
 TEST_F(ObsFileLimits, FuzzRegressionsOpenAndReadToValuesOrErrors) {
   const fs::path folder = fs::path(VDRIG_SOURCE_DIR) / "fuzz" / "regressions" / "vdobs";
   if (!fs::is_directory(folder)) GTEST_SKIP() << "no " << folder;
