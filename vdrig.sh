@@ -46,9 +46,11 @@ run_fuzzers() {
     cp -r fuzz/corpus/"$name"/. "$work/$name"/
     local seeds=("$work/$name")
     [ -d fuzz/regressions/"$name" ] && seeds+=(fuzz/regressions/"$name")
+    local flags=()  # fuzz/<target>.options: extra flags, one a line, # comments
+    [ -f fuzz/"$name".options ] && mapfile -t flags < <(grep -v -e '^#' -e '^$' fuzz/"$name".options)
     echo "== fuzz_$name: ${seconds} s"
     if ! "$target" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=25 -print_final_stats=1 \
-      -artifact_prefix="$artifacts/$name-" "${seeds[@]}" >"$work/$name.log" 2>&1; then
+      -artifact_prefix="$artifacts/$name-" "${flags[@]}" "${seeds[@]}" >"$work/$name.log" 2>&1; then
       tail -n 80 "$work/$name.log" >&2
       echo "fuzz_$name failed: the input is in $artifacts/" >&2
       rm -rf "$work"
