@@ -56,7 +56,7 @@ run_fuzzers() {
       rm -rf "$work"
       return 1
     fi
-    grep -E "^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)" "$work/$name.log" | tr '\n' ' '
+    grep -E "^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)" "$work/$name.log" | tr '\n' ' ' || true
     echo
   done
   rm -rf "$work"

@@ -16,7 +16,9 @@ TEST(ParameterMapFuzzRegressions, ReadToAValueOrAnError) {
   for (const auto& entry : fs::directory_iterator(folder)) {
     Result<ParameterMap> map = Error{ErrorCode::kInternal, "not run"};
     EXPECT_NO_THROW(map = ParameterMap::read(entry.path())) << entry.path();
-    if (!map) EXPECT_NE(map.error().code, ErrorCode::kInternal) << entry.path();
+    if (!map) {
+      EXPECT_NE(map.error().code, ErrorCode::kInternal) << entry.path();
+    }
   }
 }
 
