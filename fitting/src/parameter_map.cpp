@@ -217,9 +217,10 @@ Result<ParameterMap> ParameterMap::read(const std::filesystem::path& path) {
   auto model = ModelDescriptor::parse(spec_it->second);
   if (!model) return make_error(ErrorCode::kCorrupt, path.string() + ": " + model.error().message);
   if (model->kind == "phong" && model->lobes == 0) {
-    model->lobes = na.count("vdrig.lobes") ? static_cast<int>(na.at("vdrig.lobes")) : 0;
-    if (model->lobes < 1 || model->lobes > 4)
-      return make_error(ErrorCode::kCorrupt, path.string() + ": bad vdrig.lobes");
+    // Checked as a double first: casting NaN or 1e300 to int is undefined behaviour.
+    const double lobes = na.count("vdrig.lobes") ? na.at("vdrig.lobes") : 0.0;
+    if (!(lobes >= 1 && lobes <= 4)) return make_error(ErrorCode::kCorrupt, path.string() + ": bad vdrig.lobes");
+    model->lobes = static_cast<int>(lobes);
   }
   ParameterMap map;
   map.model_ = model.value();
