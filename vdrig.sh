@@ -25,10 +25,10 @@ with_display() {
   if [ -n "${DISPLAY:-}" ]; then "$@"; else xvfb-run -a -s "-screen 0 1280x1024x24" "$@"; fi
 }
 
-# Builds the fuzz preset (clang, ASan + UBSan) and runs every fuzz target for VDRIG_FUZZ_SECONDS (15) over a copy of
-# its corpus (fuzz/corpus/<target>/; the fuzzer adds inputs to the copy, never to the repository) plus its kept
-# regression inputs (fuzz/regressions/<target>/, replayed first). A crash stops the run; its input is written to
-# build/fuzz/artifacts/ (keep it in fuzz/regressions/<target>/ once fixed).
+# Builds the fuzz preset (clang, ASan + UBSan); for every fuzz target replays its kept regression inputs
+# (fuzz/regressions/<target>/) and then fuzzes for VDRIG_FUZZ_SECONDS (15) over a copy of its corpus
+# (fuzz/corpus/<target>/; the fuzzer adds inputs to the copy, never to the repository). A crash stops the run; its
+# input is written to build/fuzz/artifacts/ (keep it in fuzz/regressions/<target>/ once fixed).
 run_fuzzers() {
   configure_and_build fuzz
   local seconds=${VDRIG_FUZZ_SECONDS:-15} artifacts=$PWD/build/fuzz/artifacts work target name
@@ -44,13 +44,19 @@ run_fuzzers() {
     [ "$name" = make_corpus ] && continue
     mkdir -p "$work/$name"
     cp -r fuzz/corpus/"$name"/. "$work/$name"/
-    local seeds=("$work/$name")
-    [ -d fuzz/regressions/"$name" ] && seeds+=(fuzz/regressions/"$name")
     local flags=()  # fuzz/<target>.options: extra flags, one a line, # comments
     [ -f fuzz/"$name".options ] && mapfile -t flags < <(grep -v -e '^#' -e '^$' fuzz/"$name".options)
-    echo "== fuzz_$name: ${seconds} s"
-    if ! "$target" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=25 -print_final_stats=1 \
-      -artifact_prefix="$artifacts/$name-" "${flags[@]}" "${seeds[@]}" >"$work/$name.log" 2>&1; then
+    local common=(-rss_limit_mb=2048 -timeout=25 -artifact_prefix="$artifacts/$name-")
+    # The kept regression inputs are replayed once each, apart: as seeds, a slow one (the EXR targets keep inputs
+    # that make OpenEXR allocate gigabytes) and its mutants would eat the whole fuzzing time.
+    local regressions=()
+    [ -d fuzz/regressions/"$name" ] && mapfile -t regressions < <(find fuzz/regressions/"$name" -type f | sort)
+    echo "== fuzz_$name: ${#regressions[@]} regression inputs, then ${seconds} s"
+    : >"$work/$name.log"
+    if ! { [ ${#regressions[@]} -eq 0 ] || "$target" "${common[@]}" "${flags[@]}" "${regressions[@]}"; } \
+      >>"$work/$name.log" 2>&1 ||
+      ! "$target" -max_total_time="$seconds" -print_final_stats=1 "${common[@]}" "${flags[@]}" "$work/$name" \
+        >>"$work/$name.log" 2>&1; then
       tail -n 80 "$work/$name.log" >&2
       echo "fuzz_$name failed: the input is in $artifacts/" >&2
       rm -rf "$work"
