@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
-#   ./vdrig.sh test   set up, build, and pass the tests (Release, then again under ASan + UBSan)
-# Other verbs: build, bench, results (regenerates docs/results.md), format-check. Options after the verb go to the demo (see: build/apps/vdrig demo --help).
+#   ./vdrig.sh test   set up, build, and pass the tests (Release, then under ASan + UBSan, then the fuzz targets)
+# Other verbs: build, bench, results (regenerates docs/results.md), format-check, fuzz (each fuzz target for
+# VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go to the demo (see: build/apps/vdrig demo --help).
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -24,6 +25,49 @@ with_display() {
   if [ -n "${DISPLAY:-}" ]; then "$@"; else xvfb-run -a -s "-screen 0 1280x1024x24" "$@"; fi
 }
 
+# Builds the fuzz preset (clang, ASan + UBSan); for every fuzz target replays its kept regression inputs
+# (fuzz/regressions/<target>/) and then fuzzes for VDRIG_FUZZ_SECONDS (15) over a copy of its corpus
+# (fuzz/corpus/<target>/; the fuzzer adds inputs to the copy, never to the repository). A crash stops the run; its
+# input is written to build/fuzz/artifacts/ (keep it in fuzz/regressions/<target>/ once fixed).
+run_fuzzers() {
+  configure_and_build fuzz
+  local seconds=${VDRIG_FUZZ_SECONDS:-15} artifacts=$PWD/build/fuzz/artifacts work target name
+  mkdir -p "$artifacts"
+  work=$(mktemp -d)
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+  export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
+  export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  # Readable stack traces (clang 16's runtimes look for a symbolizer of their own version, absent here).
+  if command -v llvm-symbolizer >/dev/null; then export ASAN_SYMBOLIZER_PATH; ASAN_SYMBOLIZER_PATH=$(command -v llvm-symbolizer); fi
+  for target in build/fuzz/fuzz/fuzz_*; do
+    name=${target##*/fuzz_}
+    [ "$name" = make_corpus ] && continue
+    mkdir -p "$work/$name"
+    cp -r fuzz/corpus/"$name"/. "$work/$name"/
+    local flags=()  # fuzz/<target>.options: extra flags, one a line, # comments
+    [ -f fuzz/"$name".options ] && mapfile -t flags < <(grep -v -e '^#' -e '^$' fuzz/"$name".options)
+    local common=(-rss_limit_mb=2048 -timeout=25 -artifact_prefix="$artifacts/$name-")
+    # The kept regression inputs are replayed once each, apart: as seeds, a slow one (the EXR targets keep inputs
+    # that make OpenEXR allocate gigabytes) and its mutants would eat the whole fuzzing time.
+    local regressions=()
+    [ -d fuzz/regressions/"$name" ] && mapfile -t regressions < <(find fuzz/regressions/"$name" -type f | sort)
+    echo "== fuzz_$name: ${#regressions[@]} regression inputs, then ${seconds} s"
+    : >"$work/$name.log"
+    if ! { [ ${#regressions[@]} -eq 0 ] || "$target" "${common[@]}" "${flags[@]}" "${regressions[@]}"; } \
+      >>"$work/$name.log" 2>&1 ||
+      ! "$target" -max_total_time="$seconds" -print_final_stats=1 "${common[@]}" "${flags[@]}" "$work/$name" \
+        >>"$work/$name.log" 2>&1; then
+      tail -n 80 "$work/$name.log" >&2
+      echo "fuzz_$name failed: the input is in $artifacts/" >&2
+      rm -rf "$work"
+      return 1
+    fi
+    grep -E "^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)" "$work/$name.log" | tr '\n' ' ' || true
+    echo
+  done
+  rm -rf "$work"
+}
+
 case "$verb" in
   demo)
     setup
@@ -39,6 +83,11 @@ case "$verb" in
     export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
     with_display ctest --preset asan
+    run_fuzzers
+    ;;
+  fuzz)
+    setup
+    run_fuzzers
     ;;
   build)
     setup

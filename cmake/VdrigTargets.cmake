@@ -13,6 +13,18 @@ if(VDRIG_SANITIZE)
                                                  -fno-sanitize-recover=undefined)
   target_link_options(vdrig_options INTERFACE -fsanitize=address,undefined)
 endif()
+# Fuzzing build: every library gets libFuzzer's coverage hooks (fuzzer-no-link) and ASan + UBSan; the targets in
+# fuzz/ add -fsanitize=fuzzer (libFuzzer's main). FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION is libFuzzer's usual
+# switch for checks a mutated input can never pass (checksums): those are skipped so the fuzzer reaches the parser.
+if(VDRIG_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "VDRIG_FUZZ needs clang (cmake --preset fuzz)")
+  endif()
+  target_compile_options(vdrig_options INTERFACE -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer
+                                                 -fno-sanitize-recover=undefined)
+  target_compile_definitions(vdrig_options INTERFACE FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION)
+  target_link_options(vdrig_options INTERFACE -fsanitize=address,undefined)
+endif()
 
 # vdrig_module(NAME SOURCES ... PUBLIC_DEPS ... PRIVATE_DEPS ...): one static library per module folder, as
 # vdrig::NAME, with public headers in NAME/include/vdrig/NAME/ and private ones beside the sources in NAME/src/.

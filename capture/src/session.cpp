@@ -9,8 +9,10 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <type_traits>
 
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
@@ -28,6 +30,33 @@ namespace {
 json pan_tilt_json(const PanTilt& p) {
   return {{"pan_deg", rad_to_deg(p.pan_rad)}, {"tilt_deg", rad_to_deg(p.tilt_rad)}};
 }
+/// `v` as an Int, or a json::type_error naming `key` (caught with the other json errors of the readers below):
+/// nlohmann's get<int>() casts a float such as 1e30 or a wider integer unchecked, which is undefined behaviour.
+template <typename Int>
+Int checked_int(const json& v, const char* key) {
+  using Limits = std::numeric_limits<Int>;
+  bool fits = false;
+  if (v.is_number_unsigned()) {
+    fits = v.get<uint64_t>() <= static_cast<uint64_t>(Limits::max());
+  } else if (v.is_number_integer()) {
+    const int64_t i = v.get<int64_t>();
+    fits = i >= 0 ? static_cast<uint64_t>(i) <= static_cast<uint64_t>(Limits::max())
+                  : std::is_signed_v<Int> && i >= static_cast<int64_t>(Limits::min());
+  }
+  if (!fits)
+    throw json::type_error::create(302,
+                                   std::string("\"") + key + "\" must be an integer that fits, not " +
+                                       (v.is_number() ? v.dump() : std::string("a ") + v.type_name()),
+                                   &v);
+  return v.get<Int>();
+}
+/// Field `key` of object `j` as an Int (checked_int), or `fallback` when absent.
+template <typename Int>
+Int int_or(const json& j, const char* key, Int fallback) {
+  const auto it = j.find(key);
+  return it == j.end() ? fallback : checked_int<Int>(*it, key);
+}
+
 PanTilt pan_tilt_from(const json& j) {
   return {deg_to_rad(j.at("pan_deg").get<double>()), deg_to_rad(j.at("tilt_deg").get<double>())};
 }
@@ -81,7 +110,7 @@ Result<Manifest> Manifest::from_json(const json& j) {
     if (j.value("format", "") != "vdrig-session")
       return make_error(ErrorCode::kCorrupt, "manifest: not a vdrig session manifest");
     Manifest m;
-    m.format_version = j.at("format_version").get<int>();
+    m.format_version = checked_int<int>(j.at("format_version"), "format_version");
     if (m.format_version != kSessionFormatVersion)
       return make_error(ErrorCode::kCorrupt,
                         "manifest: unsupported format_version " + std::to_string(m.format_version));
@@ -96,7 +125,7 @@ Result<Manifest> Manifest::from_json(const json& j) {
     m.surface_height_mm = size.at(1).get<double>();
     for (const auto& v : j.at("views")) {
       PlannedView pv;
-      pv.index = v.at("index").get<int>();
+      pv.index = checked_int<int>(v.at("index"), "index");
       const auto d = v.at("direction");
       pv.direction = Vec3d(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>());
       pv.target = pan_tilt_from(v.at("target"));
@@ -130,16 +159,16 @@ json FrameRecord::to_json() const {
 Result<FrameRecord> FrameRecord::from_json(const json& j) {
   try {
     FrameRecord r;
-    r.view = j.at("view").get<int>();
-    r.bracket_index = j.at("bracket").get<int>();
+    r.view = checked_int<int>(j.at("view"), "view");
+    r.bracket_index = checked_int<int>(j.at("bracket"), "bracket");
     r.file = j.at("file").get<std::string>();
     r.exposure_s = j.at("exposure_s").get<double>();
     r.gain = j.value("gain", 1.0);
-    r.bits = j.value("bits", 8);
+    r.bits = int_or(j, "bits", 8);
     r.commanded = pan_tilt_from(j.at("commanded"));
     r.measured = pan_tilt_from(j.at("measured"));
-    r.timestamp_ns = j.value("timestamp_ns", int64_t{0});
-    r.sequence = j.value("sequence", uint64_t{0});
+    r.timestamp_ns = int_or(j, "timestamp_ns", int64_t{0});
+    r.sequence = int_or(j, "sequence", uint64_t{0});
     r.saturated = j.value("saturated", false);
     if (r.file.find("..") != std::string::npos || r.file.empty() || r.file[0] == '/')
       return make_error(ErrorCode::kCorrupt, "journal: frame file name escapes the session: " + r.file);
@@ -207,7 +236,12 @@ Result<Session> Session::open(const fs::path& dir) {
     json j = json::parse(line, nullptr, false);
     if (j.is_discarded())
       return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + " is not valid JSON");
-    const std::string type = j.value("type", "");
+    const std::string where = "journal line " + std::to_string(line_no);
+    if (!j.is_object()) return make_error(ErrorCode::kCorrupt, where + " is not a JSON object");
+    const auto type_field = j.find("type");
+    if (type_field != j.end() && !type_field->is_string())
+      return make_error(ErrorCode::kCorrupt, where + ": \"type\" must be a string");
+    const std::string type = type_field == j.end() ? "" : type_field->get<std::string>();
     if (type == "frame" || type == "view_complete") {
       // A completion line must name its view (the old default -1 counted a view that does not exist).
       if (view_out_of_range(j, s.manifest_.views.size()) || (type == "view_complete" && !j.contains("view"))) {
@@ -218,11 +252,14 @@ Result<Session> Session::open(const fs::path& dir) {
     }
     if (type == "frame") {
       auto r = FrameRecord::from_json(j);
-      if (!r)
-        return make_error(ErrorCode::kCorrupt, "journal line " + std::to_string(line_no) + ": " + r.error().message);
+      if (!r) return make_error(ErrorCode::kCorrupt, where + ": " + r.error().message);
       s.frames_.push_back(r.value());
     } else if (type == "view_complete") {
-      s.complete_views_[j.value("view", -1)] = j.value("frames", -1);
+      try {
+        s.complete_views_[int_or(j, "view", -1)] = int_or(j, "frames", -1);
+      } catch (const json::exception& e) {
+        return make_error(ErrorCode::kCorrupt, where + ": " + e.what());
+      }
     }  // other types (events, faults) are informational
   }
   return s;

@@ -31,6 +31,10 @@ constexpr size_t kBytesPerObservation = 25;
 constexpr int kMaxTileSize = 4096;
 constexpr int kMaxTexelsPerSide = 1 << 20;
 constexpr int kMaxViews = 1 << 20;
+/// A tile is read whole (stored, raw, then its arrays): the reader refuses tiles larger than this uncompressed
+/// (e.g. 32 x 32 texels x 20,000 views, or 128 x 128 x 1,300), so a header's dimensions cannot make it allocate
+/// gigabytes; the writer refuses to write what the reader would refuse.
+constexpr uint64_t kMaxTileRawBytes = uint64_t{512} << 20;
 constexpr int kSpillZstdLevel = 1;  // the spill is read once: favour speed
 
 /// 64-bit hash of a byte range (8 bytes at a time, murmur-style mixing): catches flipped bits and torn writes.
@@ -56,6 +60,17 @@ uint64_t hash64(const void* data, size_t n) {
   h *= 0xFF51AFD7ED558CCDull;
   h ^= h >> 33;
   return h;
+}
+
+/// Whether a stored checksum matches. Fuzzing builds skip the comparison: a mutated input could never pass it, and
+/// the fuzzer would never reach the size checks and the decompressor behind it (docs/fuzzing.md).
+bool checksum_matches(uint64_t stored, const void* data, size_t n) {
+#ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
+  (void)stored, (void)data, (void)n;
+  return true;
+#else
+  return stored == hash64(data, n);
+#endif
 }
 
 template <typename T>
@@ -149,6 +164,14 @@ struct TileGrid {
 
 /// Raw (uncompressed) layout of n observations: radiance (3n f32), direction (3n f32), flags (n u8).
 size_t raw_bytes(size_t n) { return n * kBytesPerObservation; }
+
+/// Why a map's largest tile is more than a reader may allocate (kMaxTileRawBytes), or "" when it is not.
+std::string tile_too_large(int tile_size, int texels_s, int texels_t, int views) {
+  const uint64_t texels = static_cast<uint64_t>(std::min(tile_size, texels_s)) * std::min(tile_size, texels_t);
+  if (raw_bytes(texels * static_cast<uint64_t>(views)) <= kMaxTileRawBytes) return "";
+  return "a tile of " + std::to_string(texels) + " texels x " + std::to_string(views) +
+         " views exceeds the reader's limit of " + std::to_string(kMaxTileRawBytes >> 20) + " MiB per tile";
+}
 
 void pack(std::vector<char>& out, const float* rgb, const float* dir, const uint8_t* flags, size_t n) {
   out.resize(raw_bytes(n));
@@ -408,6 +431,9 @@ Result<ObsMapWriter> ObsMapWriter::create(const fs::path& path, const Observatio
     return make_error(ErrorCode::kInvalidArgument, "view count out of range: " + std::to_string(views));
   if (spec.texels_s > kMaxTexelsPerSide || spec.texels_t > kMaxTexelsPerSide)
     return make_error(ErrorCode::kInvalidArgument, "observation map too large");
+  if (const std::string why_big = tile_too_large(options.tile_size, spec.texels_s, spec.texels_t, views);
+      !why_big.empty())
+    return make_error(ErrorCode::kInvalidArgument, why_big + ": use a smaller tile size");
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   impl->spec = spec;
@@ -490,6 +516,8 @@ Status ObsMapWriter::add_view(int view, const ObservationMap& map) {
 
 Status ObsMapWriter::finish() { return impl_->finish(); }
 
+uint64_t obsfile_hash64(const void* data, size_t n) { return hash64(data, n); }
+
 Status write_obsmap_file(const ObservationMap& map, const fs::path& path, const ObsFileOptions& options) {
   auto w = ObsMapWriter::create(path, map.spec(), map.views(), options);
   if (!w) return w.error();
@@ -537,7 +565,8 @@ Result<ObsMapReader> ObsMapReader::open(const fs::path& path) {
     return make_error(ErrorCode::kUnsupported, path.string() + ": observation-map format version " +
                                                    std::to_string(version) + ", this build reads version " +
                                                    std::to_string(kObsFileVersion));
-  if (get<uint64_t>(h, 120) != hash64(h.data(), 120)) return m.corrupt("header checksum mismatch (damaged header)");
+  if (!checksum_matches(get<uint64_t>(h, 120), h.data(), 120))
+    return m.corrupt("header checksum mismatch (damaged header)");
   ObsFileHeader& hd = m.header;
   hd.version = version;
   hd.spec.texels_s = get<int32_t>(h, 16);
@@ -558,6 +587,17 @@ Result<ObsMapReader> ObsMapReader::open(const fs::path& path) {
     return m.corrupt("bad tile size " + std::to_string(hd.tile_size));
   if (compression > 1) return m.corrupt("unknown compression " + std::to_string(compression));
   hd.compression = static_cast<ObsCompression>(compression);
+  // Sizes from the header are checked before anything is allocated from them: the tile count against the file (its
+  // index must fit; this also keeps the count within int), the largest tile against what a read may allocate.
+  const uint64_t tile_count = static_cast<uint64_t>(ceil_div(hd.spec.texels_s, hd.tile_size)) *
+                              static_cast<uint64_t>(ceil_div(hd.spec.texels_t, hd.tile_size));
+  if (tile_count * kIndexEntryBytes > file_bytes)
+    return m.corrupt("truncated: " + std::to_string(tile_count) + " tiles need a " +
+                     std::to_string(tile_count * kIndexEntryBytes) + "-byte index, the file has " +
+                     std::to_string(file_bytes) + " bytes");
+  if (const std::string why_big = tile_too_large(hd.tile_size, hd.spec.texels_s, hd.spec.texels_t, hd.views);
+      !why_big.empty())
+    return m.corrupt(why_big);
   m.grid = TileGrid(hd.spec.texels_s, hd.spec.texels_t, hd.tile_size);
   hd.tiles_s = m.grid.tiles_s;
   hd.tiles_t = m.grid.tiles_t;
@@ -574,7 +614,7 @@ Result<ObsMapReader> ObsMapReader::open(const fs::path& path) {
                      ", the file has " + std::to_string(file_bytes));
   std::vector<char> idx(index_bytes);
   VDRIG_TRY(read_at(m.fd.get(), path, idx.data(), idx.size(), index_offset));
-  if (get<uint64_t>(h, 80) != hash64(idx.data(), idx.size())) return m.corrupt("tile index checksum mismatch");
+  if (!checksum_matches(get<uint64_t>(h, 80), idx.data(), idx.size())) return m.corrupt("tile index checksum mismatch");
   m.index.resize(m.grid.count());
   for (int k = 0; k < m.grid.count(); ++k) {
     Impl::Entry& e = m.index[k];
@@ -611,7 +651,8 @@ Result<ObsTile> ObsMapReader::read_tile(int tile_s, int tile_t) const {
   std::vector<char> stored(e.bytes);
   VDRIG_TRY(read_at(m.fd.get(), m.path, stored.data(), stored.size(), e.offset));
   const std::string name = "tile (" + std::to_string(tile_s) + ", " + std::to_string(tile_t) + ")";
-  if (hash64(stored.data(), stored.size()) != e.hash) return m.corrupt(name + " checksum mismatch (damaged data)");
+  if (!checksum_matches(e.hash, stored.data(), stored.size()))
+    return m.corrupt(name + " checksum mismatch (damaged data)");
   std::vector<char> raw;
   if (m.header.compression == ObsCompression::kZstd) {
     const unsigned long long content = ZSTD_getFrameContentSize(stored.data(), stored.size());
@@ -633,9 +674,11 @@ Result<ObsTile> ObsMapReader::read_tile(int tile_s, int tile_t) const {
   tile.radiance_.resize(3 * n);
   tile.direction_.resize(3 * n);
   tile.flags_.resize(n);
-  std::memcpy(tile.radiance_.data(), raw.data(), 12 * n);
-  std::memcpy(tile.direction_.data(), raw.data() + 12 * n, 12 * n);
-  std::memcpy(tile.flags_.data(), raw.data() + 24 * n, n);
+  if (n > 0) {  // a map of 0 views has empty tiles (and null data pointers, which memcpy must not get)
+    std::memcpy(tile.radiance_.data(), raw.data(), 12 * n);
+    std::memcpy(tile.direction_.data(), raw.data() + 12 * n, 12 * n);
+    std::memcpy(tile.flags_.data(), raw.data() + 24 * n, n);
+  }
   return tile;
 }
 

@@ -120,9 +120,10 @@ void PhongModel::write_attributes(std::map<std::string, double>& number_attribut
 Result<ModelPtr> PhongModel::with_attributes(const std::map<std::string, double>& number_attributes) const {
   if (!auto_lobes_) return shared_from_this();
   const auto it = number_attributes.find("vdrig.lobes");
-  const int lobes = it == number_attributes.end() ? 0 : static_cast<int>(it->second);
-  if (lobes < 1 || lobes > kMaxLobes) return make_error(ErrorCode::kCorrupt, "bad vdrig.lobes");
-  return with_lobes(lobes);
+  // Checked as a double first: casting NaN or 1e300 to int is undefined behaviour (found by fuzz_parameter_map).
+  const double lobes = it == number_attributes.end() ? 0.0 : it->second;
+  if (!(lobes >= 1 && lobes <= kMaxLobes)) return make_error(ErrorCode::kCorrupt, "bad vdrig.lobes");
+  return with_lobes(static_cast<int>(lobes));
 }
 
 PhongParams PhongModel::params_of(std::span<const double> p) const {

@@ -136,6 +136,9 @@ class ObsMapReader {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The format's checksum (docs/obsmap.md, "hash64"), for tools and tests that write or repair a file by hand.
+uint64_t obsfile_hash64(const void* data, size_t n);
+
 /// Writes an in-memory map to `path` (ObsMapWriter fed view by view).
 Status write_obsmap_file(const ObservationMap& map, const std::filesystem::path& path,
                          const ObsFileOptions& options = {});
