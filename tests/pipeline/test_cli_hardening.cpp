@@ -41,7 +41,7 @@ std::string slurp(const fs::path& p) {
 class CliHardening : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = test::fresh_temp_dir("cli_hardening");
+    dir_ = vdrig::test::fresh_temp_dir("cli_hardening");
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 class ViewChecks : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = test::fresh_temp_dir("view_checks");
+    dir_ = vdrig::test::fresh_temp_dir("view_checks");
     auto s = test::small_merged_session(dir_ / "session");
     ASSERT_TRUE(s) << s.error().describe();
     session_.emplace(std::move(s.value()));
