@@ -1,5 +1,6 @@
 // `vdrig probe info|lights|irradiance|render FILE`: inspect an equirectangular HDR light probe, extract median-cut
-// lights or SH-9 irradiance coefficients as JSON, and render a diffuse sphere lit by it (probe/, docs/probe.md).
+// lights as JSON, write its irradiance map (or SH-9 coefficients as JSON), and render a diffuse sphere lit by it
+// (probe/, docs/probe.md). `vdrig probe cube IN --size N|--height H --out OUT`: lat-long <-> cube strip.
 // `vdrig probe fuse A.exr:X,Y,Z B.exr:X,Y,Z ... --room ... --at X,Y,Z`: fuse probes on a box proxy at a new position.
 #include <cstdio>
 #include <memory>
@@ -10,7 +11,9 @@
 
 #include "commands.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/fusion.hpp"
+#include "vdrig/probe/irradiance_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/probe_json.hpp"
@@ -61,10 +64,74 @@ Status run_lights(const std::string& file, bool design_notes, int count, const s
   return write_text(out, probe::lights_to_json(lights));
 }
 
-Status run_irradiance(const std::string& file, bool design_notes, const std::string& out) {
-  auto p = load(file, design_notes);
+// `vdrig probe irradiance`: an irradiance map in the input's layout (lat-long panorama or vdrig's, or a cube strip),
+// or with --json the SH-9 coefficients.
+struct IrradianceArgs {
+  std::string file, method = "exact", out;
+  int width = 128;
+  bool json = false, design_notes = false;
+};
+
+Status run_irradiance(const IrradianceArgs& a) {
+  auto method = probe::parse_irradiance_method(a.method);
+  if (!method) return usage("--method: " + method.error().message);
+  if (a.json) {
+    if (method->method != probe::IrradianceMethod::kSh9)
+      return usage("--json writes SH-9 coefficients: use --method sh9");
+    auto p = load(a.file, a.design_notes);
+    if (!p) return p.error();
+    return write_text(a.out.empty() ? "sh9.json" : a.out, probe::sh9_to_json({a.file, probe::project_sh9(*p)}));
+  }
+  const std::string out = a.out.empty() ? "irradiance.exr" : a.out;
+  probe::LoadOptions o;
+  o.azimuth = a.design_notes ? probe::FileAzimuth::kDesignNotes : probe::FileAzimuth::kPanorama;
+  probe::FileAzimuth layout = probe::FileAzimuth::kDesignNotes;
+  auto p = probe::load_probe(a.file, o, &layout);
+  if (!p && p.error().code == ErrorCode::kInvalidArgument) {
+    // Not 2:1: a cube strip (6 N x N) gives a cube of --width texels a side.
+    auto cube = probe::load_cube_map(a.file);
+    if (!cube)
+      return make_error(ErrorCode::kInvalidArgument, p.error().message + "; nor a cube map: " + cube.error().message);
+    if (a.width < 1) return usage("--width (cube face size) must be >= 1");
+    const probe::CubeMap e = probe::irradiance_cube(probe::IrradianceModel::build(*cube, *method), a.width);
+    VDRIG_TRY(probe::save_cube_map(out, e));
+    std::printf("wrote %s (irradiance cube 6 x %d x %d, %s)\n", out.c_str(), a.width, a.width, a.method.c_str());
+    return Status::ok();
+  }
   if (!p) return p.error();
-  return write_text(out, probe::sh9_to_json({file, probe::project_sh9(*p)}));
+  if (a.width < 2 || a.width % 2 != 0) return usage("--width must be even and >= 2");
+  probe::Probe e = probe::irradiance_latlong(probe::IrradianceModel::build(*p, *method), a.width);
+  e.position_mm = p->position_mm;
+  e.rotation = p->rotation;
+  VDRIG_TRY(probe::save_probe(out, e, layout));
+  std::printf("wrote %s (irradiance %d x %d, %s, %s layout)\n", out.c_str(), e.width(), e.height(), a.method.c_str(),
+              layout == probe::FileAzimuth::kPanorama ? "panorama" : "design-notes");
+  return Status::ok();
+}
+
+// `vdrig probe cube`: a lat-long probe to a cube strip, or a cube strip (6 N x N) back to a lat-long probe.
+struct CubeArgs {
+  std::string file, out;
+  int size = 128, height = 0;
+  bool design_notes = false;
+};
+
+Status run_cube(const CubeArgs& a) {
+  auto p = load(a.file, a.design_notes);
+  if (p) {
+    if (a.size < 1) return usage("--size must be >= 1");
+    VDRIG_TRY(probe::save_cube_map(a.out, probe::latlong_to_cube(*p, a.size)));
+    std::printf("wrote %s (cube 6 x %d x %d)\n", a.out.c_str(), a.size, a.size);
+    return Status::ok();
+  }
+  if (p.error().code != ErrorCode::kInvalidArgument) return p.error();
+  auto cube = probe::load_cube_map(a.file);
+  if (!cube)
+    return make_error(ErrorCode::kInvalidArgument, p.error().message + "; nor a cube map: " + cube.error().message);
+  const int height = a.height > 0 ? a.height : 2 * cube->size;
+  VDRIG_TRY(probe::save_probe(a.out, probe::cube_to_latlong(*cube, height)));
+  std::printf("wrote %s (lat-long %d x %d, vdrig layout)\n", a.out.c_str(), 2 * height, height);
+  return Status::ok();
 }
 
 Result<probe::Rgb> parse_albedo(const std::string& text) {
@@ -250,15 +317,25 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->callback([a] { finish(run_lights(a->file, a->design_notes, a->count, a->out)); });
   }
   {
-    auto* cmd = cmd_probe->add_subcommand("irradiance", "9 SH radiance coefficients per channel as JSON");
-    struct Args {
-      std::string file, out = "sh9.json";
-      bool design_notes = false;
-    };
-    auto a = std::make_shared<Args>();
+    auto* cmd = cmd_probe->add_subcommand("irradiance", "irradiance map (OpenEXR, the input's layout) or SH-9 JSON");
+    auto a = std::make_shared<IrradianceArgs>();
     add_file(cmd, a->file, a->design_notes);
-    cmd->add_option("--out", a->out, "JSON to write")->capture_default_str();
-    cmd->callback([a] { finish(run_irradiance(a->file, a->design_notes, a->out)); });
+    cmd->add_option("--method", a->method, "exact | sh9 | mediancut:N | hybrid:N")->capture_default_str();
+    cmd->add_option("--width", a->width, "output width (height width / 2); for a cube input, the face size")
+        ->capture_default_str();
+    cmd->add_flag("--json", a->json, "with --method sh9: write the 9 SH radiance coefficients as JSON instead");
+    cmd->add_option("--out", a->out, "file to write (default irradiance.exr, or sh9.json with --json)");
+    cmd->callback([a] { finish(run_irradiance(*a)); });
+  }
+  {
+    auto* cmd =
+        cmd_probe->add_subcommand("cube", "lat-long probe -> cube strip (6 N x N), or a cube strip -> lat-long");
+    auto a = std::make_shared<CubeArgs>();
+    add_file(cmd, a->file, a->design_notes);
+    cmd->add_option("--size", a->size, "cube face size (lat-long input)")->capture_default_str();
+    cmd->add_option("--height", a->height, "lat-long rows (cube input); 0: twice the face size")->capture_default_str();
+    cmd->add_option("--out", a->out, "OpenEXR to write")->required();
+    cmd->callback([a] { finish(run_cube(*a)); });
   }
   {
     auto* cmd = cmd_probe->add_subcommand("render", "a diffuse sphere lit by the probe, tone mapped to PNG");

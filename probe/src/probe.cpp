@@ -52,7 +52,7 @@ Probe make_probe(int height) {
   return p;
 }
 
-Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options) {
+Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options, FileAzimuth* file_layout) {
   auto log = vdrig::log::get("probe");
   if (options.width != 0 && (options.width < 2 || options.width % 2 != 0))
     return make_error(ErrorCode::kInvalidArgument, "probe width must be even and >= 2 (or 0 to keep the file's), got " +
@@ -77,6 +77,7 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
                                                std::to_string(im.number_attributes.at(kVersionAttr)) +
                                                ", newer than this build reads (" + std::to_string(kFileVersion) + ")");
   const bool mirror = !ours && options.azimuth == FileAzimuth::kPanorama;
+  if (file_layout) *file_layout = mirror ? FileAzimuth::kPanorama : FileAzimuth::kDesignNotes;
 
   Probe p = make_probe(H);
   long clamped = 0;
@@ -112,10 +113,23 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
   return p;
 }
 
-Status save_probe(const std::filesystem::path& path, const Probe& probe) {
+Status save_probe(const std::filesystem::path& path, const Probe& probe, FileAzimuth layout) {
   ExrImage im;
   std::vector<cv::Mat> planes;
   cv::split(probe.radiance, planes);
+  if (layout == FileAzimuth::kPanorama) {
+    // load_probe's mapping i = (W / 2 - 1 - c) mod W is its own inverse: file column c = (W / 2 - 1 - i) mod W.
+    const int W = probe.width();
+    for (cv::Mat& plane : planes) {
+      cv::Mat mirrored(plane.size(), CV_32FC1);
+      for (int c = 0; c < W; ++c) plane.col(((W / 2 - 1 - c) % W + W) % W).copyTo(mirrored.col(c));
+      plane = mirrored;
+    }
+    im.add("R", planes[0]);
+    im.add("G", planes[1]);
+    im.add("B", planes[2]);
+    return write_exr(path, im);
+  }
   im.add("R", planes[0]);
   im.add("G", planes[1]);
   im.add("B", planes[2]);
@@ -242,6 +256,19 @@ IrradianceIntegrator::IrradianceIntegrator(const Probe& probe, int max_width) {
         dirs_.push_back(static_cast<float>(d[k]));
         weighted_.push_back(static_cast<float>(c[k]));
       }
+    }
+  }
+}
+
+IrradianceIntegrator::IrradianceIntegrator(const std::vector<Vec3d>& directions,
+                                           const std::vector<Rgb>& radiance_times_sr) {
+  VDRIG_CHECK(directions.size() == radiance_times_sr.size(), "one radiance per direction");
+  width_ = 0;
+  for (size_t p = 0; p < directions.size(); ++p) {
+    if (radiance_times_sr[p].isZero()) continue;
+    for (int k = 0; k < 3; ++k) {
+      dirs_.push_back(static_cast<float>(directions[p][k]));
+      weighted_.push_back(static_cast<float>(radiance_times_sr[p][k]));
     }
   }
 }

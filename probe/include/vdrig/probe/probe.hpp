@@ -67,12 +67,19 @@ struct LoadOptions {
 /// written by save_probe (attribute "vdrig.probe.version") are read in vdrig's layout with their pose and
 /// depth whatever options.azimuth says. Errors: kNotFound (missing file), kCorrupt (unreadable EXR, missing R/G/B,
 /// non-finite pixels), kInvalidArgument (not 2:1, or options.width odd or < 2 but not 0). Negative values (DWA
-/// compression ringing around zero) are clamped to 0 and counted in the log.
-Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options = {});
+/// compression ringing around zero) are clamped to 0 and counted in the log. `file_layout` (optional) receives the
+/// layout the file's columns were read in (kDesignNotes for files written by save_probe), for writing a derived map
+/// back in the same layout.
+Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options = {},
+                         FileAzimuth* file_layout = nullptr);
 
-/// Writes the probe as float OpenEXR in vdrig's layout: channels R, G, B (+ "Z" = depth in mm when
+/// Writes the probe as float OpenEXR. In vdrig's layout (the default): channels R, G, B (+ "Z" = depth in mm when
 /// present) and attributes vdrig.probe.version = 1, vdrig.probe.layout = "design-notes", position and rotation.
-Status save_probe(const std::filesystem::path& path, const Probe& probe);
+/// With FileAzimuth::kPanorama: the columns mirrored back to the panorama layout (load_probe's inverse), channels
+/// R, G, B only and no vdrig attributes, so that the file lies pixel for pixel over the panorama it came from and
+/// load_probe with default options reads it back unchanged (the pose is not stored).
+Status save_probe(const std::filesystem::path& path, const Probe& probe,
+                  FileAzimuth layout = FileAzimuth::kDesignNotes);
 
 /// The probe resampled to `width` x width / 2 (width even, >= 2). Shrinking by an integer factor averages each
 /// block weighted by solid angle, which keeps total_power exactly; other shrink factors use OpenCV's box-weighted
@@ -105,6 +112,8 @@ BrightestPixel brightest_pixel(const Probe& probe);
 class IrradianceIntegrator {
  public:
   explicit IrradianceIntegrator(const Probe& probe, int max_width = 0);
+  /// Over any quadrature of the sphere (a cube map's texels): unit directions and radiance x solid angle, paired.
+  IrradianceIntegrator(const std::vector<Vec3d>& directions, const std::vector<Rgb>& radiance_times_sr);
   /// E(n) for a unit normal n in the probe frame.
   Rgb irradiance(const Vec3d& normal) const;
   int width() const { return width_; }
