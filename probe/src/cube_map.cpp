@@ -17,10 +17,6 @@ constexpr int kFileVersion = 1;
 // F(a, b) of cube_texel_solid_angle: solid angle of the face rectangle [0, a] x [0, b] at unit distance (signed).
 double corner_area(double a, double b) { return std::atan2(a * b, std::sqrt(a * a + b * b + 1.0)); }
 
-cv::Vec3f to_vec3f(const Rgb& c) {
-  return {static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())};
-}
-
 }  // namespace
 
 const char* to_string(CubeFace face) {
@@ -133,7 +129,7 @@ CubeMap latlong_to_cube(const Probe& probe, int size, int samples) {
           for (int sx = 0; sx < samples; ++sx)
             sum += radiance_at(probe, cube_direction(static_cast<CubeFace>(f), i + (sx + 0.5) / samples,
                                                      j + (sy + 0.5) / samples, size));
-        cube.faces[f].at<cv::Vec3f>(j, i) = to_vec3f(sum / (samples * samples));
+        cube.set_texel(static_cast<CubeFace>(f), i, j, sum / (samples * samples));
       }
   return cube;
 }
@@ -149,7 +145,7 @@ Probe cube_to_latlong(const CubeMap& cube, int height, int samples) {
         for (int sx = 0; sx < samples; ++sx)
           sum += radiance_at(cube,
                              latlong_direction(i - 0.5 + (sx + 0.5) / samples, j - 0.5 + (sy + 0.5) / samples, W, H));
-      p.radiance.at<cv::Vec3f>(j, i) = to_vec3f(sum / (samples * samples));
+      p.set_pixel(i, j, sum / (samples * samples));
     }
   return p;
 }
@@ -161,9 +157,9 @@ Status save_cube_map(const std::filesystem::path& path, const CubeMap& cube) {
   std::vector<cv::Mat> planes;
   cv::split(strip, planes);
   ExrImage im;
-  im.add("R", planes[0]);
+  im.add("R", planes[2]);
   im.add("G", planes[1]);
-  im.add("B", planes[2]);
+  im.add("B", planes[0]);
   im.number_attributes[kVersionAttr] = kFileVersion;
   im.string_attributes[kLayoutAttr] = kLayout;
   return write_exr(path, im);
@@ -175,7 +171,7 @@ Result<CubeMap> load_cube_map(const std::filesystem::path& path) {
   auto exr = read_exr(path);
   if (!exr) return make_error(exr.error().code, "cube map: " + exr.error().message);
   const ExrImage& im = exr.value();
-  const int ch[3] = {im.find("R"), im.find("G"), im.find("B")};
+  const int ch[3] = {im.find("B"), im.find("G"), im.find("R")};  // the faces' order
   if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0)
     return make_error(ErrorCode::kCorrupt, "cube map " + path.string() + " has no R, G and B channels");
   const int N = im.height;

@@ -9,10 +9,6 @@ namespace {
 
 constexpr int kHybridRegionsPerLight = 8;
 
-cv::Vec3f to_vec3f(const Rgb& c) {
-  return {static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())};
-}
-
 // Texel directions and radiance x exact solid angle of a cube: the quadrature exact and sh9 sum over.
 void cube_quadrature(const CubeMap& cube, std::vector<Vec3d>* dirs, std::vector<Rgb>* weighted) {
   const int N = cube.size;
@@ -142,7 +138,7 @@ Probe irradiance_latlong(const IrradianceModel& model, int width) {
   for (int j = 0; j < out.height(); ++j)
     for (int i = 0; i < out.width(); ++i)
       out.radiance.at<cv::Vec3f>(j, i) =
-          to_vec3f(model.irradiance(latlong_direction(i, j, out.width(), out.height())).cwiseMax(0.0));
+          to_bgr(model.irradiance(latlong_direction(i, j, out.width(), out.height())).cwiseMax(0.0));
   return out;
 }
 
@@ -152,7 +148,7 @@ CubeMap irradiance_cube(const IrradianceModel& model, int size) {
     for (int j = 0; j < size; ++j)
       for (int i = 0; i < size; ++i)
         out.faces[f].at<cv::Vec3f>(j, i) =
-            to_vec3f(model.irradiance(cube_direction(static_cast<CubeFace>(f), i + 0.5, j + 0.5, size)).cwiseMax(0.0));
+            to_bgr(model.irradiance(cube_direction(static_cast<CubeFace>(f), i + 0.5, j + 0.5, size)).cwiseMax(0.0));
   return out;
 }
 

@@ -15,6 +15,15 @@ constexpr const char* kVersionAttr = "vdrig.probe.version";
 constexpr const char* kLayoutAttr = "vdrig.probe.layout";
 constexpr int kFileVersion = 1;
 
+// Adds the B, G, R planes of a float image as the file's R, G, B channels.
+void add_rgb_channels(ExrImage* im, const cv::Mat& bgr) {
+  std::vector<cv::Mat> planes;
+  cv::split(bgr, planes);
+  im->add("R", planes[2]);
+  im->add("G", planes[1]);
+  im->add("B", planes[0]);
+}
+
 std::string pose_attr(const char* what, int k) { return std::string("vdrig.probe.") + what + "." + std::to_string(k); }
 
 // Bilinear sample of a single- or three-channel float map at continuous pixel coordinates (x, y) measured so that
@@ -62,7 +71,7 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
   auto exr = read_exr(path);
   if (!exr) return make_error(exr.error().code, "light probe: " + exr.error().message);
   const ExrImage& im = exr.value();
-  const int ch[3] = {im.find("R"), im.find("G"), im.find("B")};
+  const int ch[3] = {im.find("B"), im.find("G"), im.find("R")};  // the radiance Mat's order
   if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0)
     return make_error(ErrorCode::kCorrupt, "light probe " + path.string() + " has no R, G and B channels");
   const int W = im.width, H = im.height;
@@ -115,24 +124,15 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
 
 Status save_probe(const std::filesystem::path& path, const Probe& probe, FileAzimuth layout) {
   ExrImage im;
-  std::vector<cv::Mat> planes;
-  cv::split(probe.radiance, planes);
   if (layout == FileAzimuth::kPanorama) {
     // load_probe's mapping i = (W / 2 - 1 - c) mod W is its own inverse: file column c = (W / 2 - 1 - i) mod W.
     const int W = probe.width();
-    for (cv::Mat& plane : planes) {
-      cv::Mat mirrored(plane.size(), CV_32FC1);
-      for (int c = 0; c < W; ++c) plane.col(((W / 2 - 1 - c) % W + W) % W).copyTo(mirrored.col(c));
-      plane = mirrored;
-    }
-    im.add("R", planes[0]);
-    im.add("G", planes[1]);
-    im.add("B", planes[2]);
+    cv::Mat mirrored(probe.radiance.size(), CV_32FC3);
+    for (int c = 0; c < W; ++c) probe.radiance.col(((W / 2 - 1 - c) % W + W) % W).copyTo(mirrored.col(c));
+    add_rgb_channels(&im, mirrored);
     return write_exr(path, im);
   }
-  im.add("R", planes[0]);
-  im.add("G", planes[1]);
-  im.add("B", planes[2]);
+  add_rgb_channels(&im, probe.radiance);
   if (probe.has_depth()) im.add("Z", probe.depth_mm);
   im.number_attributes[kVersionAttr] = kFileVersion;
   im.string_attributes[kLayoutAttr] = "design-notes";
@@ -170,9 +170,7 @@ Probe resample(const Probe& probe, int width) {
           }
           weight += f * sa;
         }
-        sum /= weight;
-        out.radiance.at<cv::Vec3f>(j, i) =
-            cv::Vec3f(static_cast<float>(sum.x()), static_cast<float>(sum.y()), static_cast<float>(sum.z()));
+        out.set_pixel(i, j, sum / weight);
         if (probe.has_depth()) out.depth_mm.at<float>(j, i) = static_cast<float>(depth / weight);
       }
     return out;
@@ -199,8 +197,7 @@ Probe resample(const Probe& probe, int width) {
 Rgb radiance_at(const Probe& probe, const Vec3d& dir) {
   double x, y;
   direction_to_pixel(dir, probe.width(), probe.height(), &x, &y);
-  const cv::Vec3f v = bilinear<cv::Vec3f>(probe.radiance, x, y);
-  return {v[0], v[1], v[2]};
+  return from_bgr(bilinear<cv::Vec3f>(probe.radiance, x, y));
 }
 
 Rgb total_power(const Probe& probe) {

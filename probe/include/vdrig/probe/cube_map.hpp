@@ -10,7 +10,7 @@
 //   +Z    +x   -y        -Z    -x   -y
 // s = (sc / |ma| + 1) / 2, t = (tc / |ma| + 1) / 2 in [0, 1]; texel column = s N, row = t N (row 0 is the first
 // row of the face's cv::Mat and of the file). Texel (i, j) covers [i, i + 1) x [j, j + 1) of those coordinates.
-// Radiance is CV_32FC3 in the order Probe uses (probe.hpp).
+// Radiance is CV_32FC3 in B, G, R order as Probe's (probe.hpp); texel() and set_texel() convert to and from Rgb.
 #pragma once
 
 #include <array>
@@ -32,9 +32,9 @@ struct CubeMap {
   int size = 0;
   std::array<cv::Mat, kCubeFaceCount> faces;
 
-  Rgb texel(CubeFace face, int i, int j) const {
-    const cv::Vec3f& v = faces[static_cast<int>(face)].at<cv::Vec3f>(j, i);
-    return {v[0], v[1], v[2]};
+  Rgb texel(CubeFace face, int i, int j) const { return from_bgr(faces[static_cast<int>(face)].at<cv::Vec3f>(j, i)); }
+  void set_texel(CubeFace face, int i, int j, const Rgb& c) {
+    faces[static_cast<int>(face)].at<cv::Vec3f>(j, i) = to_bgr(c);
   }
 };
 

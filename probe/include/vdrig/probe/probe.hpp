@@ -3,6 +3,10 @@
 // Conventions (docs/conventions.md): column i of a W x H map looks at azimuth 2 pi (i + 0.5) / W (from +x
 // toward +y), row j at zenith pi (j + 0.5) / H (row 0 looks along +z); row j's pixels subtend
 // latlong_pixel_solid_angle(j, W, H) sr each. Directions here are in the probe's own frame unless a name says world.
+//
+// Channel order: images (cv::Mat) are B, G, R as everywhere in vdrig (OpenCV's order); colour triples in code
+// (`Rgb`, Eigen) are R, G, B. Probe::pixel / set_pixel and to_bgr / from_bgr are the only places that cross over;
+// files carry named channels R, G, B.
 #pragma once
 
 #include <Eigen/Core>
@@ -18,12 +22,19 @@ namespace vdrig::probe {
 /// Linear RGB triple (radiance, irradiance or power; R, G, B in that order).
 using Rgb = Eigen::Vector3d;
 
+/// An Rgb as a pixel of a B, G, R float image, and back.
+inline cv::Vec3f to_bgr(const Rgb& c) {
+  return {static_cast<float>(c.z()), static_cast<float>(c.y()), static_cast<float>(c.x())};
+}
+inline Rgb from_bgr(const cv::Vec3f& v) { return {v[2], v[1], v[0]}; }
+
 /// Relative luminance of linear RGB (Rec. 709 / sRGB primaries), the "energy" of the median cut.
 inline double luminance(const Rgb& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
 
 /// `Probe`: one light probe. A lat-long HDR radiance map in vdrig's layout (see the file comment), the
 /// probe's pose in the world, and optionally the distance to the scene behind every pixel.
-///  - radiance: CV_32FC3, H x W with W = 2 H, channels in R, G, B order (NOT OpenCV's BGR), linear, >= 0.
+///  - radiance: CV_32FC3, H x W with W = 2 H, channels in B, G, R order (OpenCV's, as the rest of vdrig), linear,
+///    >= 0; pixel() and set_pixel() convert to and from Rgb.
 ///  - position_mm: centre of the probe in the world (mm); rotation: probe frame -> world, d_world = R d_probe.
 ///  - depth_mm: CV_32FC1 of the same size, distance (mm) from position_mm along each pixel's direction to the
 ///    first surface; empty when unknown (a real probe photographed without a scene model).
@@ -37,10 +48,8 @@ struct Probe {
   int height() const { return radiance.rows; }
   bool has_depth() const { return !depth_mm.empty(); }
   /// Radiance of pixel (i, j) (column, row). No bounds check beyond OpenCV's debug asserts.
-  Rgb pixel(int i, int j) const {
-    const cv::Vec3f& v = radiance.at<cv::Vec3f>(j, i);
-    return {v[0], v[1], v[2]};
-  }
+  Rgb pixel(int i, int j) const { return from_bgr(radiance.at<cv::Vec3f>(j, i)); }
+  void set_pixel(int i, int j, const Rgb& c) { radiance.at<cv::Vec3f>(j, i) = to_bgr(c); }
 };
 
 /// A W x H (W = 2 H) probe filled with zero radiance at the origin; VDRIG_CHECKs H >= 1.
