@@ -40,10 +40,11 @@ Result<IrradianceMethodSpec> parse_irradiance_method(const std::string& text) {
   }
   const size_t colon = text.find(':');
   const std::string name = text.substr(0, colon);
-  if ((name == "mediancut" || name == "hybrid") && colon != std::string::npos) {
+  if ((name == "mediancut" || name == "hybrid" || name == "soft") && colon != std::string::npos) {
     auto n = parse_count(text.substr(colon + 1), name);
     if (!n) return n.error();
-    s.method = name == "mediancut" ? IrradianceMethod::kMedianCut : IrradianceMethod::kHybrid;
+    s.method = name == "mediancut" ? IrradianceMethod::kMedianCut
+                                   : (name == "hybrid" ? IrradianceMethod::kHybrid : IrradianceMethod::kSoft);
     s.light_count = *n;
     if (s.method == IrradianceMethod::kMedianCut && !is_power_of_two(s.light_count))
       return make_error(ErrorCode::kInvalidArgument,
@@ -51,7 +52,7 @@ Result<IrradianceMethodSpec> parse_irradiance_method(const std::string& text) {
     return s;
   }
   return make_error(ErrorCode::kInvalidArgument,
-                    "irradiance method must be exact, sh9, mediancut:N or hybrid:N, got '" + text + "'");
+                    "irradiance method must be exact, sh9, mediancut:N, hybrid:N or soft:N, got '" + text + "'");
 }
 
 std::string to_string(const IrradianceMethodSpec& s) {
@@ -64,6 +65,8 @@ std::string to_string(const IrradianceMethodSpec& s) {
       return "mediancut:" + std::to_string(s.light_count);
     case IrradianceMethod::kHybrid:
       return "hybrid:" + std::to_string(s.light_count);
+    case IrradianceMethod::kSoft:
+      return "soft:" + std::to_string(s.light_count);
   }
   return "?";
 }
@@ -72,6 +75,13 @@ IrradianceModel IrradianceModel::from_latlong_cut(const Probe& probe, const Irra
   IrradianceModel m;
   if (spec.method == IrradianceMethod::kMedianCut) {
     m.lights_ = median_cut(probe, spec.light_count);
+    return m;
+  }
+  if (spec.method == IrradianceMethod::kSoft) {
+    SoftLightOptions o;
+    o.count = spec.light_count;
+    m.soft_ = soft_lights(probe, o);
+    m.sh9_ = m.soft_->sh9;
     return m;
   }
   VDRIG_CHECK(spec.method == IrradianceMethod::kHybrid && spec.light_count >= 1, "hybrid needs a light count");
@@ -112,7 +122,8 @@ IrradianceModel IrradianceModel::build(const Probe& probe, const IrradianceMetho
 }
 
 IrradianceModel IrradianceModel::build(const CubeMap& cube, const IrradianceMethodSpec& spec) {
-  if (spec.method == IrradianceMethod::kMedianCut || spec.method == IrradianceMethod::kHybrid)
+  if (spec.method == IrradianceMethod::kMedianCut || spec.method == IrradianceMethod::kHybrid ||
+      spec.method == IrradianceMethod::kSoft)
     return from_latlong_cut(cube_to_latlong(cube, 2 * cube.size), spec);
   std::vector<Vec3d> dirs;
   std::vector<Rgb> weighted;
@@ -127,6 +138,7 @@ IrradianceModel IrradianceModel::build(const CubeMap& cube, const IrradianceMeth
 
 Rgb IrradianceModel::irradiance(const Vec3d& normal) const {
   if (exact_) return exact_->irradiance(normal);
+  if (soft_) return soft_->irradiance(normal);
   Rgb e = irradiance_from_lights(lights_, normal);
   if (sh9_) e += sh9_irradiance(*sh9_, normal);
   return e;

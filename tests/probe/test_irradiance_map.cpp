@@ -13,7 +13,7 @@ namespace {
 using testing::load_real_probe;
 using testing::synthetic_probe;
 
-const char* const kMethods[] = {"exact", "sh9", "mediancut:256", "hybrid:16"};
+const char* const kMethods[] = {"exact", "sh9", "mediancut:256", "hybrid:16", "soft:64"};
 
 IrradianceMethodSpec method(const std::string& text) {
   auto m = parse_irradiance_method(text);
@@ -61,9 +61,11 @@ TEST(IrradianceMap, WhiteFurnaceCube) {
 }
 
 TEST(IrradianceMap, ParsesMethodsAndRejectsBadOnes) {
-  for (const char* text : {"exact", "sh9", "mediancut:64", "hybrid:3"}) EXPECT_EQ(to_string(method(text)), text);
+  for (const char* text : {"exact", "sh9", "mediancut:64", "hybrid:3", "soft:16"})
+    EXPECT_EQ(to_string(method(text)), text);
   EXPECT_EQ(method("hybrid:3").light_count, 3);
-  for (const char* bad : {"", "brute", "mediancut", "mediancut:", "mediancut:48", "hybrid:0", "hybrid:x", "sh9:4"}) {
+  for (const char* bad :
+       {"", "brute", "mediancut", "mediancut:", "mediancut:48", "hybrid:0", "hybrid:x", "sh9:4", "soft:-2"}) {
     auto m = parse_irradiance_method(bad);
     ASSERT_FALSE(m) << bad;
     EXPECT_EQ(m.error().code, ErrorCode::kInvalidArgument) << bad;
