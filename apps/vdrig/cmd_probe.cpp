@@ -320,7 +320,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
     auto* cmd = cmd_probe->add_subcommand("irradiance", "irradiance map (OpenEXR, the input's layout) or SH-9 JSON");
     auto a = std::make_shared<IrradianceArgs>();
     add_file(cmd, a->file, a->design_notes);
-    cmd->add_option("--method", a->method, "exact | sh9 | mediancut:N | hybrid:N")->capture_default_str();
+    cmd->add_option("--method", a->method, "exact | sh9 | mediancut:N | hybrid:N | soft:N")->capture_default_str();
     cmd->add_option("--width", a->width, "output width (height width / 2); for a cube input, the face size")
         ->capture_default_str();
     cmd->add_flag("--json", a->json, "with --method sh9: write the 9 SH radiance coefficients as JSON instead");
