@@ -15,6 +15,12 @@ constexpr int kVersion = 1;
 Error invalid(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); }
 Error corrupt(const std::string& m) { return make_error(ErrorCode::kCorrupt, "path JSON: " + m); }
 
+std::string number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
 std::string describe(const Vec3d& p) {
   std::ostringstream s;
   s << "(" << p.x() << ", " << p.y() << ", " << p.z() << ") mm";
@@ -34,16 +40,15 @@ Status validate_path(const ObjectPath& path, const ProxyBox& room, double margin
     if (!std::isfinite(key.time_s) || !key.position_mm.allFinite())
       return invalid(name + " has a non-finite time or position");
     if (k > 0 && !(key.time_s > path.keys[k - 1].time_s))
-      return invalid(name + " at " + std::to_string(key.time_s) + " s does not come after key " +
-                     std::to_string(k - 1) + " at " + std::to_string(path.keys[k - 1].time_s) +
-                     " s (times must increase)");
+      return invalid(name + " at " + number(key.time_s) + " s does not come after key " + std::to_string(k - 1) +
+                     " at " + number(path.keys[k - 1].time_s) + " s (times must increase)");
     for (int a = 0; a < 3; ++a) {
       const bool below = key.position_mm[a] <= room.min_mm[a] + margin_mm;
       const bool above = key.position_mm[a] >= room.max_mm[a] - margin_mm;
       if (below || above)
         return invalid(name + " at " + describe(key.position_mm) + " leaves the room through the " +
                        kWall[a][above ? 1 : 0] + " wall (room " + describe(room.min_mm) + " to " +
-                       describe(room.max_mm) + ", margin " + std::to_string(margin_mm) + " mm)");
+                       describe(room.max_mm) + ", margin " + number(margin_mm) + " mm)");
     }
   }
   return Status::ok();
