@@ -359,6 +359,15 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_flag("--design-notes-azimuth", design_notes,
                   "the file's columns already run with vdrig's azimuth (default: panorama / Blender layout)");
   };
+  // Source probes placed in a room, for `fuse` and `path`.
+  auto add_probes_and_room = [](CLI::App* cmd, std::vector<std::string>& probes, std::string& room,
+                                bool& design_notes) {
+    cmd->add_option("probes", probes, "FILE:X,Y,Z (probe position, mm) or FILE (position stored in the file)")
+        ->required();
+    cmd->add_option("--room", room, "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX: the box proxy, mm")->required();
+    cmd->add_flag("--design-notes-azimuth", design_notes,
+                  "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
+  };
   {
     auto* cmd = cmd_probe->add_subcommand("info", "size, total power, brightest direction");
     struct Args {
@@ -414,9 +423,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
   {
     auto* cmd = cmd_probe->add_subcommand("fuse", "fuse probes on a box proxy (the room) at a new position");
     auto a = std::make_shared<FuseArgs>();
-    cmd->add_option("probes", a->probes, "FILE:X,Y,Z (probe position, mm) or FILE (position stored in the file)")
-        ->required();
-    cmd->add_option("--room", a->room, "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX: the box proxy, mm")->required();
+    add_probes_and_room(cmd, a->probes, a->room, a->design_notes);
     cmd->add_option("--at", a->at, "X,Y,Z: where to fuse, mm (inside the room)")->required();
     cmd->add_option("--out", a->out, "fused probe (OpenEXR, vdrig layout, depth in Z)")->capture_default_str();
     cmd->add_option("--height", a->height, "rows of the fused map; 0: the probes'")->capture_default_str();
@@ -425,8 +432,6 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("--resolution-exponent", a->resolution_exponent, "weight min(1, density ratio)^q (0: off)")
         ->capture_default_str();
     cmd->add_option("--min-cosine", a->min_cosine, "drop a probe where w.w_i is below this")->capture_default_str();
-    cmd->add_flag("--design-notes-azimuth", a->design_notes,
-                  "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
     cmd->add_option("--render", a->render, "also render a diffuse sphere lit by the fused probe to this PNG");
     add_sphere_options(cmd, a->sphere);
     cmd->callback([a] { finish(run_fuse(*a)); });
@@ -434,9 +439,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
   {
     auto* cmd = cmd_probe->add_subcommand("path", "lights per frame for an object moving along a path in the room");
     auto a = std::make_shared<PathArgs>();
-    cmd->add_option("probes", a->probes, "FILE:X,Y,Z (probe position, mm) or FILE (position stored in the file)")
-        ->required();
-    cmd->add_option("--room", a->room, "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX: the box proxy, mm")->required();
+    add_probes_and_room(cmd, a->probes, a->room, a->design_notes);
     cmd->add_option("--path", a->path, "path JSON (vdrig.probe.path: keys of time_s and position_mm)")->required();
     cmd->add_option("--frames", a->frames, "frames, evenly spaced in time over the path")->capture_default_str();
     cmd->add_option("--method", a->method, "soft:N | mediancut:N | hybrid:N | sh9")->capture_default_str();
@@ -444,8 +447,6 @@ const CommandRegistrar registrar([](CLI::App& root) {
         ->capture_default_str();
     cmd->add_option("--height", a->height, "rows of the fused maps; 0: the probes'")->capture_default_str();
     cmd->add_option("--out", a->out, "folder for frame_NNNN.lights.json / .sh9.json")->capture_default_str();
-    cmd->add_flag("--design-notes-azimuth", a->design_notes,
-                  "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
     cmd->callback([a] { finish(run_path(*a)); });
   }
 });
