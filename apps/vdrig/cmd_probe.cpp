@@ -1,7 +1,11 @@
 // `vdrig probe info|lights|irradiance|render FILE`: inspect an equirectangular HDR light probe, extract median-cut
-// lights or SH-9 irradiance coefficients as JSON, and render a diffuse sphere lit by it (probe/, docs/probe.md).
+// lights as JSON, write its irradiance map (or SH-9 coefficients as JSON), and render a diffuse sphere lit by it
+// (probe/, docs/probe.md). `vdrig probe cube IN --size N|--height H --out OUT`: lat-long <-> cube strip.
 // `vdrig probe fuse A.exr:X,Y,Z B.exr:X,Y,Z ... --room ... --at X,Y,Z`: fuse probes on a box proxy at a new position.
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -10,8 +14,11 @@
 
 #include "commands.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/fusion.hpp"
+#include "vdrig/probe/irradiance_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
+#include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/probe_json.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
@@ -61,10 +68,74 @@ Status run_lights(const std::string& file, bool design_notes, int count, const s
   return write_text(out, probe::lights_to_json(lights));
 }
 
-Status run_irradiance(const std::string& file, bool design_notes, const std::string& out) {
-  auto p = load(file, design_notes);
+// `vdrig probe irradiance`: an irradiance map in the input's layout (lat-long panorama or vdrig's, or a cube strip),
+// or with --json the SH-9 coefficients.
+struct IrradianceArgs {
+  std::string file, method = "exact", out;
+  int width = 128;
+  bool json = false, design_notes = false;
+};
+
+Status run_irradiance(const IrradianceArgs& a) {
+  auto method = probe::parse_irradiance_method(a.method);
+  if (!method) return usage("--method: " + method.error().message);
+  if (a.json) {
+    if (method->method != probe::IrradianceMethod::kSh9)
+      return usage("--json writes SH-9 coefficients: use --method sh9");
+    auto p = load(a.file, a.design_notes);
+    if (!p) return p.error();
+    return write_text(a.out.empty() ? "sh9.json" : a.out, probe::sh9_to_json({a.file, probe::project_sh9(*p)}));
+  }
+  const std::string out = a.out.empty() ? "irradiance.exr" : a.out;
+  probe::LoadOptions o;
+  o.azimuth = a.design_notes ? probe::FileAzimuth::kDesignNotes : probe::FileAzimuth::kPanorama;
+  probe::FileAzimuth layout = probe::FileAzimuth::kDesignNotes;
+  auto p = probe::load_probe(a.file, o, &layout);
+  if (!p && p.error().code == ErrorCode::kInvalidArgument) {
+    // Not 2:1: a cube strip (6 N x N) gives a cube of --width texels a side.
+    auto cube = probe::load_cube_map(a.file);
+    if (!cube)
+      return make_error(ErrorCode::kInvalidArgument, p.error().message + "; nor a cube map: " + cube.error().message);
+    if (a.width < 1) return usage("--width (cube face size) must be >= 1");
+    const probe::CubeMap e = probe::irradiance_cube(probe::IrradianceModel::build(*cube, *method), a.width);
+    VDRIG_TRY(probe::save_cube_map(out, e));
+    std::printf("wrote %s (irradiance cube 6 x %d x %d, %s)\n", out.c_str(), a.width, a.width, a.method.c_str());
+    return Status::ok();
+  }
   if (!p) return p.error();
-  return write_text(out, probe::sh9_to_json({file, probe::project_sh9(*p)}));
+  if (a.width < 2 || a.width % 2 != 0) return usage("--width must be even and >= 2");
+  probe::Probe e = probe::irradiance_latlong(probe::IrradianceModel::build(*p, *method), a.width);
+  e.position_mm = p->position_mm;
+  e.rotation = p->rotation;
+  VDRIG_TRY(probe::save_probe(out, e, layout));
+  std::printf("wrote %s (irradiance %d x %d, %s, %s layout)\n", out.c_str(), e.width(), e.height(), a.method.c_str(),
+              layout == probe::FileAzimuth::kPanorama ? "panorama" : "design-notes");
+  return Status::ok();
+}
+
+// `vdrig probe cube`: a lat-long probe to a cube strip, or a cube strip (6 N x N) back to a lat-long probe.
+struct CubeArgs {
+  std::string file, out;
+  int size = 128, height = 0;
+  bool design_notes = false;
+};
+
+Status run_cube(const CubeArgs& a) {
+  auto p = load(a.file, a.design_notes);
+  if (p) {
+    if (a.size < 1) return usage("--size must be >= 1");
+    VDRIG_TRY(probe::save_cube_map(a.out, probe::latlong_to_cube(*p, a.size)));
+    std::printf("wrote %s (cube 6 x %d x %d)\n", a.out.c_str(), a.size, a.size);
+    return Status::ok();
+  }
+  if (p.error().code != ErrorCode::kInvalidArgument) return p.error();
+  auto cube = probe::load_cube_map(a.file);
+  if (!cube)
+    return make_error(ErrorCode::kInvalidArgument, p.error().message + "; nor a cube map: " + cube.error().message);
+  const int height = a.height > 0 ? a.height : 2 * cube->size;
+  VDRIG_TRY(probe::save_probe(a.out, probe::cube_to_latlong(*cube, height)));
+  std::printf("wrote %s (lat-long %d x %d, vdrig layout)\n", a.out.c_str(), 2 * height, height);
+  return Status::ok();
 }
 
 Result<probe::Rgb> parse_albedo(const std::string& text) {
@@ -142,6 +213,38 @@ Result<std::vector<double>> parse_numbers(const std::string& text, size_t count,
   return v;
 }
 
+// FILE:X,Y,Z sets the probe's position; a bare FILE keeps the position stored in it (save_probe's attributes).
+Result<std::vector<probe::Probe>> load_probes(const std::vector<std::string>& specs, bool design_notes) {
+  std::vector<probe::Probe> probes;
+  for (const std::string& spec : specs) {
+    std::string file = spec;
+    std::optional<Vec3d> pos;
+    if (const size_t colon = spec.rfind(':'); colon != std::string::npos) {
+      auto xyz = parse_numbers(spec.substr(colon + 1), 3, "probe position in " + spec);
+      if (xyz) {
+        file = spec.substr(0, colon);
+        pos = Vec3d((*xyz)[0], (*xyz)[1], (*xyz)[2]);
+      }
+    }
+    auto p = load(file, design_notes);
+    if (!p) return p.error();
+    if (pos) p->position_mm = *pos;
+    std::printf("probe %s: %d x %d at %.1f, %.1f, %.1f mm, depth %s\n", file.c_str(), p->width(), p->height(),
+                p->position_mm.x(), p->position_mm.y(), p->position_mm.z(), p->has_depth() ? "yes" : "none");
+    probes.push_back(std::move(p.value()));
+  }
+  return probes;
+}
+
+Result<probe::ProxyBox> parse_room(const std::string& text) {
+  auto room = parse_numbers(text, 6, "--room");
+  if (!room) return room.error();
+  const probe::ProxyBox box{Vec3d((*room)[0], (*room)[1], (*room)[2]), Vec3d((*room)[3], (*room)[4], (*room)[5])};
+  std::string why;
+  if (!box.is_valid(&why)) return usage("--room: " + why);
+  return box;
+}
+
 struct FuseArgs {
   std::vector<std::string> probes;  // FILE or FILE:X,Y,Z (mm)
   std::string room, at, out = "fused.exr", render;
@@ -167,35 +270,17 @@ Status run_fuse(const FuseArgs& a) {
     if (!r) return r.error();
     sphere = *r;
   }
-  auto room = parse_numbers(a.room, 6, "--room");
+  auto room = parse_room(a.room);
   if (!room) return room.error();
-  const probe::ProxyBox box{Vec3d((*room)[0], (*room)[1], (*room)[2]), Vec3d((*room)[3], (*room)[4], (*room)[5])};
-  if (!box.is_valid(&why)) return usage("--room: " + why);
+  const probe::ProxyBox& box = *room;
   auto at = parse_numbers(a.at, 3, "--at");
   if (!at) return at.error();
   const Vec3d position((*at)[0], (*at)[1], (*at)[2]);
 
-  std::vector<probe::Probe> probes;
-  for (const std::string& spec : a.probes) {
-    // FILE:X,Y,Z sets the probe's position; a bare FILE keeps the position stored in it (save_probe's attributes).
-    std::string file = spec;
-    std::optional<Vec3d> pos;
-    if (const size_t colon = spec.rfind(':'); colon != std::string::npos) {
-      auto xyz = parse_numbers(spec.substr(colon + 1), 3, "probe position in " + spec);
-      if (xyz) {
-        file = spec.substr(0, colon);
-        pos = Vec3d((*xyz)[0], (*xyz)[1], (*xyz)[2]);
-      }
-    }
-    auto p = load(file, a.design_notes);
-    if (!p) return p.error();
-    if (pos) p->position_mm = *pos;
-    std::printf("probe %s: %d x %d at %.1f, %.1f, %.1f mm, depth %s\n", file.c_str(), p->width(), p->height(),
-                p->position_mm.x(), p->position_mm.y(), p->position_mm.z(), p->has_depth() ? "yes" : "none");
-    probes.push_back(std::move(p.value()));
-  }
+  auto probes = load_probes(a.probes, a.design_notes);
+  if (!probes) return probes.error();
   probe::FusionStats stats;
-  auto fused = probe::fuse(probes, position, box, o, &stats);
+  auto fused = probe::fuse(*probes, position, box, o, &stats);
   if (!fused) return fused.error();
   std::printf("fused at %.1f, %.1f, %.1f mm: %d x %d; weight shares", position.x(), position.y(), position.z(),
               fused->width(), fused->height());
@@ -206,6 +291,54 @@ Status run_fuse(const FuseArgs& a) {
   if (!sphere) return Status::ok();
   // A diffuse sphere at the new position, lit by the fused map (same options as `vdrig probe render`).
   return write_sphere(*fused, *sphere, a.sphere.gamma, a.render);
+}
+
+// ---- vdrig probe path ----------------------------------------------------------------------------------------------
+
+struct PathArgs {
+  std::vector<std::string> probes;
+  std::string room, path, method = "soft:64", out = "path_lights";
+  int frames = 300, height = 0;
+  double margin_mm = 0;
+  bool design_notes = false;
+};
+
+// Lights for a moving object: the probe fused at each frame's position on the path, turned into lights; per frame
+// DIR/frame_NNNN.lights.json (and .sh9.json for methods with an SH-9 part).
+Status run_path(const PathArgs& a) {
+  auto method = probe::parse_irradiance_method(a.method);
+  if (!method) return usage("--method: " + method.error().message);
+  if (method->method == probe::IrradianceMethod::kExact) return usage("--method exact has no lights to write");
+  if (a.frames < 1) return usage("--frames must be >= 1");
+  auto room = parse_room(a.room);
+  if (!room) return room.error();
+  std::ifstream in(a.path);
+  if (!in) return make_error(ErrorCode::kNotFound, "path file " + a.path + " cannot be read");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto path = probe::path_from_json(text);
+  if (!path) return path.error();
+  VDRIG_TRY(probe::validate_path(*path, *room, a.margin_mm));
+  auto probes = load_probes(a.probes, a.design_notes);
+  if (!probes) return probes.error();
+  probe::FusionOptions o;
+  o.height = a.height;
+  std::error_code ec;
+  std::filesystem::create_directories(a.out, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + a.out + ": " + ec.message());
+  const std::vector<Vec3d> positions = probe::sample_path(*path, a.frames);
+  for (int f = 0; f < a.frames; ++f) {
+    auto fused = probe::fuse(*probes, positions[f], *room, o);
+    if (!fused) return fused.error();
+    const probe::IrradianceModel m = probe::IrradianceModel::build(*fused, *method);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%04d", f);
+    const std::string base = (std::filesystem::path(a.out) / name).string();
+    const std::string source = "fused at frame " + std::to_string(f);
+    VDRIG_TRY(write_file_atomic(base + ".lights.json", probe::lights_to_json({source, m.lights()})));
+    if (m.sh9()) VDRIG_TRY(write_file_atomic(base + ".sh9.json", probe::sh9_to_json({source, *m.sh9()})));
+  }
+  std::printf("wrote %d frames of %s lights to %s\n", a.frames, a.method.c_str(), a.out.c_str());
+  return Status::ok();
 }
 
 const CommandRegistrar registrar([](CLI::App& root) {
@@ -225,6 +358,15 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("file", file, "equirectangular OpenEXR probe (2:1, row 0 up)")->required();
     cmd->add_flag("--design-notes-azimuth", design_notes,
                   "the file's columns already run with vdrig's azimuth (default: panorama / Blender layout)");
+  };
+  // Source probes placed in a room, for `fuse` and `path`.
+  auto add_probes_and_room = [](CLI::App* cmd, std::vector<std::string>& probes, std::string& room,
+                                bool& design_notes) {
+    cmd->add_option("probes", probes, "FILE:X,Y,Z (probe position, mm) or FILE (position stored in the file)")
+        ->required();
+    cmd->add_option("--room", room, "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX: the box proxy, mm")->required();
+    cmd->add_flag("--design-notes-azimuth", design_notes,
+                  "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
   };
   {
     auto* cmd = cmd_probe->add_subcommand("info", "size, total power, brightest direction");
@@ -250,15 +392,25 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->callback([a] { finish(run_lights(a->file, a->design_notes, a->count, a->out)); });
   }
   {
-    auto* cmd = cmd_probe->add_subcommand("irradiance", "9 SH radiance coefficients per channel as JSON");
-    struct Args {
-      std::string file, out = "sh9.json";
-      bool design_notes = false;
-    };
-    auto a = std::make_shared<Args>();
+    auto* cmd = cmd_probe->add_subcommand("irradiance", "irradiance map (OpenEXR, the input's layout) or SH-9 JSON");
+    auto a = std::make_shared<IrradianceArgs>();
     add_file(cmd, a->file, a->design_notes);
-    cmd->add_option("--out", a->out, "JSON to write")->capture_default_str();
-    cmd->callback([a] { finish(run_irradiance(a->file, a->design_notes, a->out)); });
+    cmd->add_option("--method", a->method, "exact | sh9 | mediancut:N | hybrid:N | soft:N")->capture_default_str();
+    cmd->add_option("--width", a->width, "output width (height width / 2); for a cube input, the face size")
+        ->capture_default_str();
+    cmd->add_flag("--json", a->json, "with --method sh9: write the 9 SH radiance coefficients as JSON instead");
+    cmd->add_option("--out", a->out, "file to write (default irradiance.exr, or sh9.json with --json)");
+    cmd->callback([a] { finish(run_irradiance(*a)); });
+  }
+  {
+    auto* cmd =
+        cmd_probe->add_subcommand("cube", "lat-long probe -> cube strip (6 N x N), or a cube strip -> lat-long");
+    auto a = std::make_shared<CubeArgs>();
+    add_file(cmd, a->file, a->design_notes);
+    cmd->add_option("--size", a->size, "cube face size (lat-long input)")->capture_default_str();
+    cmd->add_option("--height", a->height, "lat-long rows (cube input); 0: twice the face size")->capture_default_str();
+    cmd->add_option("--out", a->out, "OpenEXR to write")->required();
+    cmd->callback([a] { finish(run_cube(*a)); });
   }
   {
     auto* cmd = cmd_probe->add_subcommand("render", "a diffuse sphere lit by the probe, tone mapped to PNG");
@@ -271,9 +423,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
   {
     auto* cmd = cmd_probe->add_subcommand("fuse", "fuse probes on a box proxy (the room) at a new position");
     auto a = std::make_shared<FuseArgs>();
-    cmd->add_option("probes", a->probes, "FILE:X,Y,Z (probe position, mm) or FILE (position stored in the file)")
-        ->required();
-    cmd->add_option("--room", a->room, "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX: the box proxy, mm")->required();
+    add_probes_and_room(cmd, a->probes, a->room, a->design_notes);
     cmd->add_option("--at", a->at, "X,Y,Z: where to fuse, mm (inside the room)")->required();
     cmd->add_option("--out", a->out, "fused probe (OpenEXR, vdrig layout, depth in Z)")->capture_default_str();
     cmd->add_option("--height", a->height, "rows of the fused map; 0: the probes'")->capture_default_str();
@@ -282,11 +432,22 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("--resolution-exponent", a->resolution_exponent, "weight min(1, density ratio)^q (0: off)")
         ->capture_default_str();
     cmd->add_option("--min-cosine", a->min_cosine, "drop a probe where w.w_i is below this")->capture_default_str();
-    cmd->add_flag("--design-notes-azimuth", a->design_notes,
-                  "the files' columns already run with vdrig's azimuth (default: panorama / Blender layout)");
     cmd->add_option("--render", a->render, "also render a diffuse sphere lit by the fused probe to this PNG");
     add_sphere_options(cmd, a->sphere);
     cmd->callback([a] { finish(run_fuse(*a)); });
+  }
+  {
+    auto* cmd = cmd_probe->add_subcommand("path", "lights per frame for an object moving along a path in the room");
+    auto a = std::make_shared<PathArgs>();
+    add_probes_and_room(cmd, a->probes, a->room, a->design_notes);
+    cmd->add_option("--path", a->path, "path JSON (vdrig.probe.path: keys of time_s and position_mm)")->required();
+    cmd->add_option("--frames", a->frames, "frames, evenly spaced in time over the path")->capture_default_str();
+    cmd->add_option("--method", a->method, "soft:N | mediancut:N | hybrid:N | sh9")->capture_default_str();
+    cmd->add_option("--margin", a->margin_mm, "keys must stay this far from every wall, mm (the object's radius)")
+        ->capture_default_str();
+    cmd->add_option("--height", a->height, "rows of the fused maps; 0: the probes'")->capture_default_str();
+    cmd->add_option("--out", a->out, "folder for frame_NNNN.lights.json / .sh9.json")->capture_default_str();
+    cmd->callback([a] { finish(run_path(*a)); });
   }
 });
 

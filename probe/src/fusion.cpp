@@ -166,8 +166,7 @@ Probe reproject(const Probe& source, const Vec3d& new_position_mm, const ProxyBo
       }
       if (!(weight_here > 0)) continue;
       const Rgb c = radiance_at(source, dir_src);
-      out.radiance.at<cv::Vec3f>(j, i) =
-          cv::Vec3f(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
+      out.set_pixel(i, j, c);
       w.at<float>(j, i) = static_cast<float>(weight_here);
     }
   if (weight) *weight = w;
@@ -231,7 +230,7 @@ Result<Probe> fuse(const std::vector<Probe>& probes, const Vec3d& position_mm, c
         out = cv::Vec3f(static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2]));
       } else {
         const Rgb c = radiance_at(probes[nearest], to_nearest * latlong_direction(i, j, W, H));
-        out = cv::Vec3f(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
+        out = to_bgr(c);
         ++s.uncovered_pixels;
         s.uncovered_sr += latlong_pixel_solid_angle(j, W, H);
       }

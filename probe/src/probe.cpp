@@ -15,6 +15,15 @@ constexpr const char* kVersionAttr = "vdrig.probe.version";
 constexpr const char* kLayoutAttr = "vdrig.probe.layout";
 constexpr int kFileVersion = 1;
 
+// Adds the B, G, R planes of a float image as the file's R, G, B channels.
+void add_rgb_channels(ExrImage* im, const cv::Mat& bgr) {
+  std::vector<cv::Mat> planes;
+  cv::split(bgr, planes);
+  im->add("R", planes[2]);
+  im->add("G", planes[1]);
+  im->add("B", planes[0]);
+}
+
 std::string pose_attr(const char* what, int k) { return std::string("vdrig.probe.") + what + "." + std::to_string(k); }
 
 // Bilinear sample of a single- or three-channel float map at continuous pixel coordinates (x, y) measured so that
@@ -52,7 +61,7 @@ Probe make_probe(int height) {
   return p;
 }
 
-Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options) {
+Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& options, FileAzimuth* file_layout) {
   auto log = vdrig::log::get("probe");
   if (options.width != 0 && (options.width < 2 || options.width % 2 != 0))
     return make_error(ErrorCode::kInvalidArgument, "probe width must be even and >= 2 (or 0 to keep the file's), got " +
@@ -62,7 +71,7 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
   auto exr = read_exr(path);
   if (!exr) return make_error(exr.error().code, "light probe: " + exr.error().message);
   const ExrImage& im = exr.value();
-  const int ch[3] = {im.find("R"), im.find("G"), im.find("B")};
+  const int ch[3] = {im.find("B"), im.find("G"), im.find("R")};  // the radiance Mat's order
   if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0)
     return make_error(ErrorCode::kCorrupt, "light probe " + path.string() + " has no R, G and B channels");
   const int W = im.width, H = im.height;
@@ -77,6 +86,7 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
                                                std::to_string(im.number_attributes.at(kVersionAttr)) +
                                                ", newer than this build reads (" + std::to_string(kFileVersion) + ")");
   const bool mirror = !ours && options.azimuth == FileAzimuth::kPanorama;
+  if (file_layout) *file_layout = mirror ? FileAzimuth::kPanorama : FileAzimuth::kDesignNotes;
 
   Probe p = make_probe(H);
   long clamped = 0;
@@ -112,13 +122,17 @@ Result<Probe> load_probe(const std::filesystem::path& path, const LoadOptions& o
   return p;
 }
 
-Status save_probe(const std::filesystem::path& path, const Probe& probe) {
+Status save_probe(const std::filesystem::path& path, const Probe& probe, FileAzimuth layout) {
   ExrImage im;
-  std::vector<cv::Mat> planes;
-  cv::split(probe.radiance, planes);
-  im.add("R", planes[0]);
-  im.add("G", planes[1]);
-  im.add("B", planes[2]);
+  if (layout == FileAzimuth::kPanorama) {
+    // load_probe's mapping i = (W / 2 - 1 - c) mod W is its own inverse: file column c = (W / 2 - 1 - i) mod W.
+    const int W = probe.width();
+    cv::Mat mirrored(probe.radiance.size(), CV_32FC3);
+    for (int c = 0; c < W; ++c) probe.radiance.col(((W / 2 - 1 - c) % W + W) % W).copyTo(mirrored.col(c));
+    add_rgb_channels(&im, mirrored);
+    return write_exr(path, im);
+  }
+  add_rgb_channels(&im, probe.radiance);
   if (probe.has_depth()) im.add("Z", probe.depth_mm);
   im.number_attributes[kVersionAttr] = kFileVersion;
   im.string_attributes[kLayoutAttr] = "design-notes";
@@ -156,9 +170,7 @@ Probe resample(const Probe& probe, int width) {
           }
           weight += f * sa;
         }
-        sum /= weight;
-        out.radiance.at<cv::Vec3f>(j, i) =
-            cv::Vec3f(static_cast<float>(sum.x()), static_cast<float>(sum.y()), static_cast<float>(sum.z()));
+        out.set_pixel(i, j, sum / weight);
         if (probe.has_depth()) out.depth_mm.at<float>(j, i) = static_cast<float>(depth / weight);
       }
     return out;
@@ -185,8 +197,7 @@ Probe resample(const Probe& probe, int width) {
 Rgb radiance_at(const Probe& probe, const Vec3d& dir) {
   double x, y;
   direction_to_pixel(dir, probe.width(), probe.height(), &x, &y);
-  const cv::Vec3f v = bilinear<cv::Vec3f>(probe.radiance, x, y);
-  return {v[0], v[1], v[2]};
+  return from_bgr(bilinear<cv::Vec3f>(probe.radiance, x, y));
 }
 
 Rgb total_power(const Probe& probe) {
@@ -242,6 +253,19 @@ IrradianceIntegrator::IrradianceIntegrator(const Probe& probe, int max_width) {
         dirs_.push_back(static_cast<float>(d[k]));
         weighted_.push_back(static_cast<float>(c[k]));
       }
+    }
+  }
+}
+
+IrradianceIntegrator::IrradianceIntegrator(const std::vector<Vec3d>& directions,
+                                           const std::vector<Rgb>& radiance_times_sr) {
+  VDRIG_CHECK(directions.size() == radiance_times_sr.size(), "one radiance per direction");
+  width_ = 0;
+  for (size_t p = 0; p < directions.size(); ++p) {
+    if (radiance_times_sr[p].isZero()) continue;
+    for (int k = 0; k < 3; ++k) {
+      dirs_.push_back(static_cast<float>(directions[p][k]));
+      weighted_.push_back(static_cast<float>(radiance_times_sr[p][k]));
     }
   }
 }

@@ -34,6 +34,17 @@ Sh9 project_sh9(const Probe& probe) {
   return out;
 }
 
+Sh9 project_sh9(const std::vector<Vec3d>& directions, const std::vector<Rgb>& radiance_times_sr) {
+  VDRIG_CHECK(directions.size() == radiance_times_sr.size(), "one radiance per direction");
+  Sh9 out;
+  for (auto& c : out.coeffs) c.setZero();
+  for (size_t p = 0; p < directions.size(); ++p) {
+    const auto y = sh9_basis(directions[p]);
+    for (int k = 0; k < kSh9Count; ++k) out.coeffs[k] += y[k] * radiance_times_sr[p];
+  }
+  return out;
+}
+
 Rgb sh9_irradiance(const Sh9& radiance, const Vec3d& normal) {
   const auto y = sh9_basis(normal);
   Rgb e = Rgb::Zero();

@@ -85,8 +85,7 @@ cv::Mat render_diffuse_sphere(const Probe& probe, const SphereRenderOptions& o) 
         if (r2 > 1.0) continue;
         const Vec3d n = (a * right + b * up + std::sqrt(1.0 - r2) * view).normalized();
         const Rgb L = o.albedo.cwiseProduct(irradiance(n)) / kPi;
-        out.at<cv::Vec3f>(y, x) =
-            cv::Vec3f(static_cast<float>(L.x()), static_cast<float>(L.y()), static_cast<float>(L.z()));
+        out.at<cv::Vec3f>(y, x) = to_bgr(L);
       }
   };
   const int threads =
@@ -97,30 +96,29 @@ cv::Mat render_diffuse_sphere(const Probe& probe, const SphereRenderOptions& o) 
   return out;
 }
 
-cv::Mat tone_map_srgb8(const cv::Mat& rgb, double gamma) {
-  VDRIG_CHECK(rgb.type() == CV_32FC3, "tone mapping expects CV_32FC3 (R, G, B)");
-  cv::Mat out(rgb.size(), CV_8UC3);
-  for (int y = 0; y < rgb.rows; ++y)
-    for (int x = 0; x < rgb.cols; ++x) {
-      const cv::Vec3f& v = rgb.at<cv::Vec3f>(y, x);
+cv::Mat tone_map_srgb8(const cv::Mat& bgr, double gamma) {
+  VDRIG_CHECK(bgr.type() == CV_32FC3, "tone mapping expects CV_32FC3 (B, G, R)");
+  cv::Mat out(bgr.size(), CV_8UC3);
+  for (int y = 0; y < bgr.rows; ++y)
+    for (int x = 0; x < bgr.cols; ++x) {
+      const cv::Vec3f& v = bgr.at<cv::Vec3f>(y, x);
       cv::Vec3b& o = out.at<cv::Vec3b>(y, x);
       for (int c = 0; c < 3; ++c) {
         const double t = 1.0 - std::exp(-gamma * std::max(0.0f, v[c]));
         const double s = t <= 0.0031308 ? 12.92 * t : 1.055 * std::pow(t, 1.0 / 2.4) - 0.055;
-        o[2 - c] = cv::saturate_cast<uchar>(std::lround(255.0 * std::clamp(s, 0.0, 1.0)));
+        o[c] = cv::saturate_cast<uchar>(std::lround(255.0 * std::clamp(s, 0.0, 1.0)));
       }
     }
   return out;
 }
 
-double auto_gamma(const cv::Mat& rgb) {
-  VDRIG_CHECK(rgb.type() == CV_32FC3, "auto_gamma expects CV_32FC3 (R, G, B)");
+double auto_gamma(const cv::Mat& bgr) {
+  VDRIG_CHECK(bgr.type() == CV_32FC3, "auto_gamma expects CV_32FC3 (B, G, R)");
   double sum = 0;
   long n = 0;
-  for (int y = 0; y < rgb.rows; ++y)
-    for (int x = 0; x < rgb.cols; ++x) {
-      const cv::Vec3f& v = rgb.at<cv::Vec3f>(y, x);
-      const double l = luminance(Rgb(v[0], v[1], v[2]));
+  for (int y = 0; y < bgr.rows; ++y)
+    for (int x = 0; x < bgr.cols; ++x) {
+      const double l = luminance(from_bgr(bgr.at<cv::Vec3f>(y, x)));
       if (l > 0) {
         sum += l;
         ++n;

@@ -40,11 +40,7 @@ inline ::testing::AssertionResult load_real_probe(const std::string& name, Probe
 inline Probe synthetic_probe(int height, const std::function<Rgb(const Vec3d&)>& f) {
   Probe p = make_probe(height);
   for (int j = 0; j < p.height(); ++j)
-    for (int i = 0; i < p.width(); ++i) {
-      const Rgb c = f(latlong_direction(i, j, p.width(), p.height()));
-      p.radiance.at<cv::Vec3f>(j, i) =
-          cv::Vec3f(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
-    }
+    for (int i = 0; i < p.width(); ++i) p.set_pixel(i, j, f(latlong_direction(i, j, p.width(), p.height())));
   return p;
 }
 

@@ -55,9 +55,7 @@ Probe render_room(const Vec3d& position, int height, const Mat3d& rotation = Mat
           sum += w * wall_radiance(h.point_mm, h.normal);
           wsum += w;
         }
-      const Rgb c = sum / wsum;
-      p.radiance.at<cv::Vec3f>(j, i) =
-          cv::Vec3f(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z()));
+      p.set_pixel(i, j, sum / wsum);
     }
   return p;
 }

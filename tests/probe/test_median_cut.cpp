@@ -82,7 +82,7 @@ TEST(MedianCut, SunGetsTheBrightestLight) {
   // its light carries far more than the mean power and points at the sun's pixel centre; all 64 lights are still
   // produced (the other regions are split further instead).
   Probe p = synthetic_probe(128, [](const Vec3d&) { return Rgb::Constant(0.1); });
-  p.radiance.at<cv::Vec3f>(40, 70) = cv::Vec3f(2e5, 1.6e5, 1.2e5);
+  p.set_pixel(70, 40, Rgb(2e5, 1.6e5, 1.2e5));
   const Vec3d sun = latlong_direction(70, 40, 256, 128);
   const auto lights = median_cut(p, 64);
   ASSERT_EQ(lights.size(), 64u);

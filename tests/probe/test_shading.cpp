@@ -22,7 +22,7 @@ std::pair<double, double> compare(const cv::Mat& a, const cv::Mat& b) {
   for (int y = 0; y < a.rows; ++y)
     for (int x = 0; x < a.cols; ++x) {
       const cv::Vec3f &va = a.at<cv::Vec3f>(y, x), &vb = b.at<cv::Vec3f>(y, x);
-      const double la = luminance(Rgb(va[0], va[1], va[2])), lb = luminance(Rgb(vb[0], vb[1], vb[2]));
+      const double la = luminance(from_bgr(va)), lb = luminance(from_bgr(vb));
       if (lb <= 0) continue;
       sum += std::abs(la - lb) / lb;
       ++n;
@@ -48,7 +48,7 @@ TEST(Shading, UniformLightGivesTheAlbedo) {
         const cv::Vec3f v = img.at<cv::Vec3f>(y, x);
         if (v[0] == 0) continue;
         ++inside;
-        worst = std::max(worst, (Rgb(v[0], v[1], v[2]) - o.albedo).cwiseAbs().maxCoeff() / 0.8);
+        worst = std::max(worst, (from_bgr(v) - o.albedo).cwiseAbs().maxCoeff() / 0.8);
       }
     std::printf("uniform map, %-10s: sphere radiance within %.2e of the albedo\n", to_string(m), worst);
     EXPECT_NEAR(inside, kPi * 16 * 16, 40);  // the disc covers pi r^2 pixels
@@ -68,7 +68,7 @@ TEST(Shading, CentrePixelFacesTheCamera) {
   const cv::Mat img = render_diffuse_sphere(p, o);
   const Rgb expect = o.albedo.cwiseProduct(IrradianceIntegrator(p).irradiance(Vec3d::UnitY())) / kPi;
   const cv::Vec3f got = img.at<cv::Vec3f>(16, 16);
-  EXPECT_LT((Rgb(got[0], got[1], got[2]) - expect).norm() / expect.norm(), 1e-5);
+  EXPECT_LT((from_bgr(got) - expect).norm() / expect.norm(), 1e-5);
 }
 
 TEST(Shading, ThreeModesAgreeOnRealProbes) {
@@ -107,9 +107,8 @@ TEST(Shading, SphereImageIsTheToneMappedRenderWithItsGamma) {
   o.mode = ShadingMode::kSh9;
   o.view_dir = Vec3d::UnitY();
   const Rgb centre = o.albedo.cwiseProduct(sh9_irradiance(project_sh9(p), Vec3d::UnitY())) / kPi;
-  cv::Mat centre_rgb(1, 1, CV_32FC3);
-  centre_rgb.at<cv::Vec3f>(0, 0) =
-      cv::Vec3f(static_cast<float>(centre.x()), static_cast<float>(centre.y()), static_cast<float>(centre.z()));
+  cv::Mat centre_bgr(1, 1, CV_32FC3);
+  centre_bgr.at<cv::Vec3f>(0, 0) = to_bgr(centre);
   for (double gamma : {0.0, 0.7}) {
     auto image = render_sphere_image(p, o, gamma);
     ASSERT_TRUE(image) << image.error().describe();
@@ -117,7 +116,7 @@ TEST(Shading, SphereImageIsTheToneMappedRenderWithItsGamma) {
     ASSERT_EQ(image->bgr8.size(), cv::Size(33, 33));
     const double expect_gamma = gamma > 0 ? gamma : auto_gamma(render_diffuse_sphere(p, o));
     EXPECT_EQ(image->gamma, expect_gamma);
-    const cv::Vec3b expect = tone_map_srgb8(centre_rgb, expect_gamma).at<cv::Vec3b>(0, 0);
+    const cv::Vec3b expect = tone_map_srgb8(centre_bgr, expect_gamma).at<cv::Vec3b>(0, 0);
     const cv::Vec3b got = image->bgr8.at<cv::Vec3b>(16, 16);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], expect[c], 1) << "gamma " << gamma << " channel " << c;
     EXPECT_GT(got[2], got[0]) << "red (more light, higher albedo) lands in OpenCV's third channel";
@@ -136,12 +135,12 @@ TEST(Shading, SphereImageIsTheToneMappedRenderWithItsGamma) {
 }
 
 TEST(Shading, ToneMapper) {
-  cv::Mat rgb(1, 3, CV_32FC3);
+  cv::Mat bgr(1, 3, CV_32FC3);
   const double gamma = 2.0;
-  rgb.at<cv::Vec3f>(0, 0) = cv::Vec3f(0, 0, 0);
-  rgb.at<cv::Vec3f>(0, 1) = cv::Vec3f(static_cast<float>(std::log(2.0) / gamma), 0, 0);  // 1 - exp(-ln 2) = 0.5
-  rgb.at<cv::Vec3f>(0, 2) = cv::Vec3f(0, 0, 1000);
-  const cv::Mat out = tone_map_srgb8(rgb, gamma);
+  bgr.at<cv::Vec3f>(0, 0) = to_bgr(Rgb(0, 0, 0));
+  bgr.at<cv::Vec3f>(0, 1) = to_bgr(Rgb(std::log(2.0) / gamma, 0, 0));  // red; 1 - exp(-ln 2) = 0.5
+  bgr.at<cv::Vec3f>(0, 2) = to_bgr(Rgb(0, 0, 1000));                   // blue
+  const cv::Mat out = tone_map_srgb8(bgr, gamma);
   ASSERT_EQ(out.type(), CV_8UC3);
   EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(0, 0, 0));
   // sRGB(0.5) = 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354 -> 188; red lands in OpenCV's third (R) channel.

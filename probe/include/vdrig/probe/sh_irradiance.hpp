@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <vector>
 
 #include "vdrig/probe/probe.hpp"
 
@@ -35,6 +36,8 @@ struct Sh9 {
 
 /// L_i = sum over pixels of L y_i(pixel centre) * pixel solid angle.
 Sh9 project_sh9(const Probe& probe);
+/// The same over any quadrature of the sphere: unit directions and radiance x solid angle, paired.
+Sh9 project_sh9(const std::vector<Vec3d>& directions, const std::vector<Rgb>& radiance_times_sr);
 
 /// E(n) = sum_i A_l(i) L_i y_i(n) for a unit normal n (probe frame).
 Rgb sh9_irradiance(const Sh9& radiance, const Vec3d& normal);

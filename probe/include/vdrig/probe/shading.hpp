@@ -31,17 +31,17 @@ struct SphereRenderOptions {
   bool is_valid(std::string* why = nullptr) const;
 };
 
-/// Outgoing radiance of the sphere, albedo / pi * E(n), as CV_32FC3 in R, G, B order; 0 outside the sphere.
+/// Outgoing radiance of the sphere, albedo / pi * E(n), as CV_32FC3 in B, G, R order; 0 outside the sphere.
 /// The pixel (x, y) (row y downward) sees the normal a right + b up + sqrt(1 - a^2 - b^2) view_dir with
 /// a = (2 (x + 0.5) / N - 1), b = -(2 (y + 0.5) / N - 1), right = up x view_dir. Precondition: options.is_valid().
 cv::Mat render_diffuse_sphere(const Probe& probe, const SphereRenderOptions& options);
 
 /// Display tone mapping (docs/conventions.md), y = 1 - exp(-gamma x) per channel, then sRGB encoding, 8-bit:
-/// R, G, B float in, BGR CV_8UC3 out (ready for write_png).
-cv::Mat tone_map_srgb8(const cv::Mat& rgb, double gamma);
+/// B, G, R float in, B, G, R CV_8UC3 out (ready for write_png).
+cv::Mat tone_map_srgb8(const cv::Mat& bgr, double gamma);
 
 /// A gamma mapping the mean luminance of the image's non-zero pixels to 0.5 (1 if there are none).
-double auto_gamma(const cv::Mat& rgb);
+double auto_gamma(const cv::Mat& bgr);
 
 /// A display image of the sphere (what `vdrig probe render` and `vdrig probe fuse --render` write as PNG).
 struct SphereImage {

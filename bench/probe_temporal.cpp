@@ -1,0 +1,162 @@
+// Lighting a virtual object that moves through a room (docs/probe.md, "The moving object"): four probes rendered
+// analytically in a synthetic box room (walls with gradients, a window, a ceiling lamp) are fused at the object's
+// position on each of 300 frames of a closed path, and the fused map is turned into lights: median cut per frame
+// (the baseline), SH-9, hybrid and soft lights (soft_lights.hpp, the stable method). For every method:
+//  - per-frame error: mean over 64 normals of |E - E_exact| / mean E_exact, E_exact the exact convolution of the
+//    frame's fused map;
+//  - excess flicker: mean over normals of |dE - dE_exact| / mean E_exact, d the change from the previous frame
+//    (what the viewer sees as flicker beyond the true change of the lighting).
+// Prints mean and max over frames, and the seconds per frame of each step.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vdrig/probe/fusion.hpp"
+#include "vdrig/probe/irradiance_map.hpp"
+#include "vdrig/probe/object_path.hpp"
+
+using namespace vdrig;
+using namespace vdrig::probe;
+
+namespace {
+
+const ProxyBox kRoom{Vec3d(-2000, -1500, 0), Vec3d(2000, 1500, 2600)};
+
+// Emitted radiance of the wall point x with inward normal n: a colour per wall times a slow gradient, a window on
+// the +x wall and a small lamp on the ceiling.
+Rgb emitted(const Vec3d& x, const Vec3d& n) {
+  if (n.x() < -0.5 && std::abs(x.y()) <= 400 && std::abs(x.z() - 1400) <= 400) return Rgb(30, 28, 24);
+  if (n.z() < -0.5 && std::abs(x.x() + 800) <= 150 && std::abs(x.y() - 500) <= 150) return Rgb(180, 170, 150);
+  const Rgb wall[3] = {{0.6, 0.45, 0.35}, {0.35, 0.5, 0.6}, {0.8, 0.8, 0.75}};
+  const int axis = std::abs(n.x()) > 0.5 ? 0 : (std::abs(n.y()) > 0.5 ? 1 : 2);
+  return wall[axis] * (1.0 + 0.3 * std::sin(x.x() / 700.0 + x.y() / 900.0) * std::cos(x.z() / 800.0));
+}
+
+Probe render_probe(const Vec3d& position, int height) {
+  Probe p = make_probe(height);
+  p.position_mm = position;
+  const int W = p.width(), H = p.height(), ss = 2;
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      Rgb sum = Rgb::Zero();
+      for (int b = 0; b < ss; ++b)
+        for (int a = 0; a < ss; ++a) {
+          const ProxyHit hit = intersect_from_inside(
+              kRoom, position, latlong_direction(i - 0.5 + (a + 0.5) / ss, j - 0.5 + (b + 0.5) / ss, W, H));
+          sum += emitted(hit.point_mm, hit.normal);
+        }
+      p.set_pixel(i, j, sum / (ss * ss));
+    }
+  p.depth_mm = proxy_depth(p, kRoom);
+  return p;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct Series {
+  std::string name;
+  std::function<std::vector<Rgb>(const Probe& fused, const std::vector<Vec3d>& normals)> irradiance;
+  std::vector<std::vector<Rgb>> frames;
+  double seconds = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int frames = argc > 1 ? std::atoi(argv[1]) : 300;
+  const int height = 64;
+  const std::vector<Vec3d> probe_positions = {
+      {-1000, -700, 1200}, {1000, -700, 1000}, {1000, 800, 1300}, {-1000, 800, 900}};
+  std::vector<Probe> probes;
+  for (const Vec3d& p : probe_positions) probes.push_back(render_probe(p, height));
+
+  ObjectPath path;
+  for (int k = 0; k <= 24; ++k) {
+    const double a = 2 * kPi * k / 24;
+    path.keys.push_back({a, Vec3d(1300 * std::cos(a), 900 * std::sin(a), 1000 + 250 * std::sin(2 * a))});
+  }
+  if (Status s = validate_path(path, kRoom, 200); !s.is_ok()) {
+    std::fprintf(stderr, "%s\n", s.error().message.c_str());
+    return 1;
+  }
+  const std::vector<Vec3d> positions = sample_path(path, frames);
+  const std::vector<Vec3d> normals = fibonacci_directions(64);
+
+  auto evaluate = [](const IrradianceModel& m, const std::vector<Vec3d>& ns) {
+    std::vector<Rgb> e;
+    for (const Vec3d& n : ns) e.push_back(m.irradiance(n));
+    return e;
+  };
+  auto by_method = [&](const std::string& text) {
+    const IrradianceMethodSpec spec = *parse_irradiance_method(text);
+    return [spec, evaluate](const Probe& fused, const std::vector<Vec3d>& ns) {
+      return evaluate(IrradianceModel::build(fused, spec), ns);
+    };
+  };
+  std::vector<Series> series = {{"exact", by_method("exact"), {}, 0},
+                                {"mediancut:16", by_method("mediancut:16"), {}, 0},
+                                {"mediancut:64", by_method("mediancut:64"), {}, 0},
+                                {"sh9", by_method("sh9"), {}, 0},
+                                {"hybrid:4", by_method("hybrid:4"), {}, 0},
+                                {"soft:16", by_method("soft:16"), {}, 0},
+                                {"soft:64", by_method("soft:64"), {}, 0}};
+  FusionOptions options;
+  options.height = height;
+  double fuse_seconds = 0;
+  for (int f = 0; f < frames; ++f) {
+    auto t0 = std::chrono::steady_clock::now();
+    auto fused = fuse(probes, positions[f], kRoom, options);
+    fuse_seconds += seconds_since(t0);
+    if (!fused) {
+      std::fprintf(stderr, "frame %d: %s\n", f, fused.error().message.c_str());
+      return 1;
+    }
+    for (Series& s : series) {
+      t0 = std::chrono::steady_clock::now();
+      s.frames.push_back(s.irradiance(*fused, normals));
+      s.seconds += seconds_since(t0);
+    }
+  }
+  const auto& truth = series[0].frames;
+  std::printf("%d frames, fused %d x %d from %zu probes: %.1f ms per frame\n", frames, 2 * height, height,
+              probes.size(), 1e3 * fuse_seconds / frames);
+  double true_change = 0;
+  for (int f = 1; f < frames; ++f) {
+    double d = 0, mean = 0;
+    for (size_t n = 0; n < normals.size(); ++n) {
+      d += std::abs(luminance(truth[f][n]) - luminance(truth[f - 1][n]));
+      mean += luminance(truth[f][n]);
+    }
+    true_change += d / mean / (frames - 1);
+  }
+  std::printf("true frame-to-frame change of E: %.3f %% of mean E\n", 100 * true_change);
+  std::printf("%-14s %12s %12s %14s %14s %10s\n", "method", "error mean %", "error max %", "flicker mean %",
+              "flicker max %", "ms/frame");
+  for (const Series& s : series) {
+    double err_mean = 0, err_max = 0, fl_mean = 0, fl_max = 0;
+    for (int f = 0; f < frames; ++f) {
+      double mean = 0, err = 0, fl = 0;
+      for (size_t n = 0; n < normals.size(); ++n) {
+        const double t = luminance(truth[f][n]), a = luminance(s.frames[f][n]);
+        mean += t;
+        err += std::abs(a - t);
+        if (f > 0) fl += std::abs((a - luminance(s.frames[f - 1][n])) - (t - luminance(truth[f - 1][n])));
+      }
+      err_mean += err / mean / frames;
+      err_max = std::max(err_max, err / mean);
+      if (f > 0) {
+        fl_mean += fl / mean / (frames - 1);
+        fl_max = std::max(fl_max, fl / mean);
+      }
+    }
+    std::printf("%-14s %12.3f %12.3f %14.4f %14.4f %10.2f\n", s.name.c_str(), 100 * err_mean, 100 * err_max,
+                100 * fl_mean, 100 * fl_max, 1e3 * s.seconds / frames);
+  }
+  return 0;
+}

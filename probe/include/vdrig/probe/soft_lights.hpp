@@ -1,0 +1,42 @@
+// Soft lights: directional lights that do not jump between frames, for lighting a moving object from a probe that
+// changes every frame (docs/probe.md, "The moving object").
+//
+// Median-cut regions are cut at pixel boundaries chosen by comparisons, so a small change of the map can move a cut
+// and a light's direction and power jump. Here every quantity is a continuous function of the map:
+//  - SH-9 of the whole map carries bands 0..2 of the irradiance exactly;
+//  - `count` lights sit at fixed Fibonacci directions c_k; light k takes the share w_k(w) = exp(kappa (w . c_k - 1))
+//    / sum_j exp(kappa (w . c_j - 1)) of every pixel (a smooth partition of unity), carries power sum L dw w_k and
+//    points at the luminance centroid of its share;
+//  - each light adds only what SH-9 cannot hold: power x (max(0, n . d) - its SH-9 band limit
+//    1/4 + t/2 + 5 (3 t^2 - 1) / 32, t = n . d), so E = sh9_irradiance + sum of those.
+// The lights are ordinary directional lights (DirectionalLight, region unset) for a renderer that adds the SH-9 term.
+#pragma once
+
+#include <vector>
+
+#include "vdrig/probe/median_cut.hpp"
+#include "vdrig/probe/probe.hpp"
+#include "vdrig/probe/sh_irradiance.hpp"
+
+namespace vdrig::probe {
+
+struct SoftLightOptions {
+  int count = 64;       // lights, >= 1
+  double kappa = 40.0;  // sharpness of the shares (> 0): larger keeps a light's share nearer its centre direction
+};
+
+struct SoftLights {
+  Sh9 sh9;
+  std::vector<DirectionalLight> lights;
+
+  /// E(n) = sh9_irradiance(sh9, n) + sum_k power_k (max(0, n . d_k) - sh9_clamped_cosine(n . d_k)).
+  Rgb irradiance(const Vec3d& normal) const;
+};
+
+/// The SH-9 band limit of the clamped cosine max(0, t) (Funk-Hecke: sum_l A_l (2 l + 1) / (4 pi) P_l(t)).
+double sh9_clamped_cosine(double t);
+
+/// Soft lights of a lat-long map. VDRIG_CHECKs count >= 1 and kappa > 0. The powers sum to total_power(probe).
+SoftLights soft_lights(const Probe& probe, const SoftLightOptions& options = {});
+
+}  // namespace vdrig::probe

@@ -1,0 +1,112 @@
+// Irradiance maps (irradiance_map.hpp): the white furnace for every method on lat-long and cube maps, the method
+// parser, the output layout, and hybrid against median cut and SH-9 on a real probe.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "probe_support.hpp"
+#include "vdrig/probe/irradiance_map.hpp"
+
+namespace vdrig::probe {
+namespace {
+
+using testing::load_real_probe;
+using testing::synthetic_probe;
+
+const char* const kMethods[] = {"exact", "sh9", "mediancut:256", "hybrid:16", "soft:64"};
+
+IrradianceMethodSpec method(const std::string& text) {
+  auto m = parse_irradiance_method(text);
+  VDRIG_CHECK(static_cast<bool>(m), text);
+  return *m;
+}
+
+// Mean and max |E / (pi L) - 1| over the pixels of a lat-long map or the texels of a cube (luminance).
+struct Furnace {
+  double mean = 0, max = 0;
+  void add(const Rgb& e, double expected, double weight) {
+    const double d = std::abs(luminance(e) / expected - 1);
+    mean += weight * d;
+    max = std::max(max, d);
+  }
+};
+
+TEST(IrradianceMap, WhiteFurnaceLatLong) {
+  const double L = 0.7;
+  const Probe white = synthetic_probe(128, [L](const Vec3d&) { return Rgb::Constant(L); });
+  for (const char* text : kMethods) {
+    const Probe e = irradiance_latlong(IrradianceModel::build(white, method(text)), 64);
+    Furnace f;
+    for (int j = 0; j < e.height(); ++j)
+      for (int i = 0; i < e.width(); ++i) f.add(e.pixel(i, j), kPi * L, 1.0 / (e.width() * e.height()));
+    std::printf("white furnace, lat-long, %-14s mean %.4f %%, max %.4f %%\n", text, 100 * f.mean, 100 * f.max);
+    EXPECT_LT(f.mean, 0.01) << text;
+  }
+}
+
+TEST(IrradianceMap, WhiteFurnaceCube) {
+  const double L = 2.5;
+  CubeMap white = make_cube_map(32);
+  for (cv::Mat& face : white.faces) face.setTo(cv::Scalar::all(L));
+  for (const char* text : kMethods) {
+    const CubeMap e = irradiance_cube(IrradianceModel::build(white, method(text)), 16);
+    Furnace f;
+    for (int face = 0; face < kCubeFaceCount; ++face)
+      for (int j = 0; j < 16; ++j)
+        for (int i = 0; i < 16; ++i)
+          f.add(e.texel(static_cast<CubeFace>(face), i, j), kPi * L, cube_texel_solid_angle(i, j, 16) / (4 * kPi));
+    std::printf("white furnace, cube,     %-14s mean %.4f %%, max %.4f %%\n", text, 100 * f.mean, 100 * f.max);
+    EXPECT_LT(f.mean, 0.01) << text;
+  }
+}
+
+TEST(IrradianceMap, ParsesMethodsAndRejectsBadOnes) {
+  for (const char* text : {"exact", "sh9", "mediancut:64", "hybrid:3", "soft:16"})
+    EXPECT_EQ(to_string(method(text)), text);
+  EXPECT_EQ(method("hybrid:3").light_count, 3);
+  for (const char* bad :
+       {"", "brute", "mediancut", "mediancut:", "mediancut:48", "hybrid:0", "hybrid:x", "sh9:4", "soft:-2"}) {
+    auto m = parse_irradiance_method(bad);
+    ASSERT_FALSE(m) << bad;
+    EXPECT_EQ(m.error().code, ErrorCode::kInvalidArgument) << bad;
+  }
+}
+
+TEST(IrradianceMap, PixelsHoldIrradianceAtTheirNormalInTheInputLayout) {
+  // A map lit from one small patch: E peaks at the pixel looking at the patch, and each output pixel is E at its
+  // own centre direction.
+  const Vec3d sun = Vec3d(0.3, -0.5, 0.6).normalized();
+  const Probe p = synthetic_probe(64, [&](const Vec3d& d) { return Rgb::Constant(d.dot(sun) > 0.99 ? 100.0 : 0.1); });
+  const IrradianceModel model = IrradianceModel::build(p, method("exact"));
+  const Probe e = irradiance_latlong(model, 32);
+  ASSERT_EQ(e.width(), 32);
+  ASSERT_EQ(e.height(), 16);
+  for (int j = 0; j < 16; j += 5)
+    for (int i = 0; i < 32; i += 7) {
+      const Rgb want = model.irradiance(latlong_direction(i, j, 32, 16));
+      EXPECT_NEAR(e.pixel(i, j).x(), want.x(), 1e-5 * want.x());
+    }
+  const BrightestPixel b = brightest_pixel(e);
+  EXPECT_GT(b.direction.dot(sun), std::cos(12 * kPi / 180));
+}
+
+TEST(IrradianceMap, HybridBeatsSh9AndKeepsMedianCutsAccuracyOnTheInterior) {
+  Probe p;
+  ASSERT_TRUE(load_real_probe("interior", &p, 256));
+  const std::vector<Vec3d> normals = fibonacci_directions(256);
+  const std::vector<Rgb> ref = reference_irradiance(p, normals);
+  auto stats = [&](const char* text) {
+    const IrradianceModel m = IrradianceModel::build(p, method(text));
+    const IrradianceErrorStats s = irradiance_error(
+        normals, [&](const Vec3d& n) { return m.irradiance(n); }, ref);
+    std::printf("interior 256 x 128, %-14s mean %.2f %%, max %.2f %%\n", text, 100 * s.mean, 100 * s.max);
+    return s;
+  };
+  const IrradianceErrorStats sh9 = stats("sh9"), hybrid = stats("hybrid:8"), mc = stats("mediancut:8");
+  EXPECT_LT(hybrid.mean, 0.5 * sh9.mean);
+  EXPECT_LT(hybrid.mean, mc.mean);
+  EXPECT_LT(stats("exact").max, 1e-5);
+}
+
+}  // namespace
+}  // namespace vdrig::probe
