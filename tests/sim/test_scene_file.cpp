@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 
 #include "vdrig/rig/kinematics.hpp"
@@ -231,6 +232,21 @@ TEST(SceneFiles, LoadSaveLoadGivesTheSameScene) {
     ASSERT_TRUE(again.is_ok()) << again.error().message;
     expect_equal(*again, scene);
   }
+}
+
+TEST(SceneFiles, TheDocumentedExampleLoads) {
+  std::ifstream in(std::string(VDRIG_SOURCE_DIR) + "/docs/sim.md");
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t start = doc.find("```json\n{\n  \"format\": \"vdrig-scene\"");
+  ASSERT_NE(start, std::string::npos);
+  const std::size_t end = doc.find("```", start + 7);
+  const auto scene = parse_scene(nlohmann::json::parse(doc.substr(start + 7, end - start - 7)), "docs/sim.md");
+  ASSERT_TRUE(scene.is_ok()) << scene.error().message;
+  EXPECT_EQ(scene->name, "ggx-metal");
+  EXPECT_EQ(scene->materials[2].kind, MaterialKind::kGgx);
+  EXPECT_EQ(scene->materials[2].roughness_y, 0.35);
+  EXPECT_EQ(scene->patches[0].material, 3);  // by name
+  EXPECT_EQ(scene->marker_centres_mm().size(), 4u);
 }
 
 TEST(SceneFiles, UnknownNamesAndMissingFilesAreErrors) {
