@@ -87,6 +87,12 @@ std::vector<Vec3d> hemisphere_directions(int n) {
   return out;
 }
 
+double texel_relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene,
+                          const std::vector<Vec3d>& directions) {
+  const Vec3d p = texel_centre_mm(s, t, map.texels_s(), map.texels_t(), map.width_mm(), map.height_mm());
+  return relative_rms(map, s, t, scene, p, directions);
+}
+
 Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Scene& scene, const EvalOptions& options) {
   if (options.dense_directions < 1)
     return make_error(ErrorCode::kInvalidArgument, "eval needs at least one dense direction");

@@ -71,6 +71,11 @@ struct EvalReport {
 /// n unit directions on the upper hemisphere (z > 0), a Fibonacci spiral: deterministic and uniform in solid angle.
 std::vector<Vec3d> hemisphere_directions(int n);
 
+/// The relative RMS of texel (s, t) of `map` against the scene's radiance at the texel centre over `directions`
+/// (NaN when the truth is black there).
+double texel_relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene,
+                          const std::vector<Vec3d>& directions);
+
 /// Evaluates `map` against `scene` (kInvalidArgument when the map's surface size differs from the scene's; session
 /// errors as capture::Session::open).
 Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Scene& scene, const EvalOptions& options);
