@@ -7,6 +7,9 @@
 
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/sim/scene_file.hpp"
+#include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -102,6 +105,42 @@ TEST(Eval, KdScaledByTenPercentGivesTenPercentOnDiffuseTexels) {
       EXPECT_TRUE(r["ks_rel_error"].is_null());
     }
   EXPECT_TRUE(found);
+}
+
+TEST(Eval, OverTheDirectionsASessionSampled) {
+  // A session captured from a scene file (the sim config's "scene" takes FILE.json like --scene).
+  test::TempDir dir("eval_session");
+  const sim::Scene scene = sim::make_scene("patchwork").value();
+  const std::string scene_file = (dir.path() / "patchwork copy.json").string();
+  ASSERT_TRUE(sim::save_scene_file(scene, scene_file).is_ok());
+  CaptureRequest req;
+  req.out_dir = dir.path() / "session";
+  req.rig_config = sim::sim_rig_config(
+      {{"scene", scene_file}, {"camera", {{"width", 160}, {"height", 120}, {"fx", 200.0}, {"fy", 200.0}}}});
+  req.scheme = "latlong:3";
+  req.exposures_s = {0.25};
+  auto session = capture_session(req);
+  ASSERT_TRUE(session) << session.error().describe();
+
+  EvalOptions options;
+  options.dense_directions = 200;
+  options.session_dir = req.out_dir;
+  const auto report = evaluate_map(truth_map(scene, 20, 1.1), scene, options);
+  ASSERT_TRUE(report.is_ok()) << report.error().message;
+  EXPECT_EQ(report->session_views, session->completed_view_count());
+  EXPECT_GE(report->error_map.find("rel_rms.session"), 0);
+  const MaterialEval& cloth = row(*report, "red cloth");
+  ASSERT_TRUE(cloth.has_session);
+  EXPECT_NEAR(cloth.session.mean, 0.1, 1e-5);  // Lambertian: 10 % in every direction
+  // Glossy texels: the error depends on the directions (more of them near the highlight in the dense set or not).
+  const MaterialEval& glossy = row(*report, "glossy plastic");
+  EXPECT_GT(glossy.session.mean, 0.0);
+  EXPECT_LT(glossy.session.mean, 0.1);
+  EXPECT_NE(glossy.session.mean, glossy.dense.mean);
+  EXPECT_NE(report->table().find("sess.mean"), std::string::npos);
+
+  options.session_dir = dir.path() / "no such session";
+  EXPECT_FALSE(evaluate_map(truth_map(scene, 4, 1.0), scene, options).is_ok());
 }
 
 TEST(Eval, GgxTruthIsModelMismatchForAPhongMap) {

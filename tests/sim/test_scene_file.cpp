@@ -12,6 +12,7 @@
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene_file.hpp"
+#include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::sim {
@@ -247,6 +248,24 @@ TEST(SceneFiles, TheDocumentedExampleLoads) {
   EXPECT_EQ(scene->materials[2].roughness_y, 0.35);
   EXPECT_EQ(scene->patches[0].material, 3);  // by name
   EXPECT_EQ(scene->marker_centres_mm().size(), 4u);
+}
+
+TEST(SceneFiles, TheSimulatedRigTakesASceneFile) {
+  test::TempDir dir("scene_rig");
+  const std::string good = (dir.path() / "good.json").string(), bad = (dir.path() / "bad.json").string();
+  ASSERT_TRUE(save_scene_file(ggx_scene(), good).is_ok());
+  nlohmann::json broken = minimal_scene();
+  broken["materials"][1]["shininess"] = 0;
+  std::ofstream(bad) << broken.dump();
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  const nlohmann::json camera = {{"width", 32}, {"height", 24}, {"fx", 20.0}, {"fy", 20.0}};
+  auto rig = registry.make_rig(sim_rig_config({{"scene", good}, {"camera", camera}}));
+  EXPECT_TRUE(rig.is_ok()) << rig.error().describe();
+  auto refused = registry.make_rig(sim_rig_config({{"scene", bad}, {"camera", camera}}));
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_NE(refused.error().message.find("materials[1].shininess: must be >= 1, got 0"), std::string::npos)
+      << refused.error().message;
 }
 
 TEST(SceneFiles, UnknownNamesAndMissingFilesAreErrors) {
