@@ -250,24 +250,6 @@ TEST(SceneFiles, TheDocumentedExampleLoads) {
   EXPECT_EQ(scene->marker_centres_mm().size(), 4u);
 }
 
-TEST(SceneFiles, TheSimulatedRigTakesASceneFile) {
-  test::TempDir dir("scene_rig");
-  const std::string good = (dir.path() / "good.json").string(), bad = (dir.path() / "bad.json").string();
-  ASSERT_TRUE(save_scene_file(ggx_scene(), good).is_ok());
-  nlohmann::json broken = minimal_scene();
-  broken["materials"][1]["shininess"] = 0;
-  std::ofstream(bad) << broken.dump();
-  rig::BackendRegistry registry;
-  register_backends(registry);
-  const nlohmann::json camera = {{"width", 32}, {"height", 24}, {"fx", 20.0}, {"fy", 20.0}};
-  auto rig = registry.make_rig(sim_rig_config({{"scene", good}, {"camera", camera}}));
-  EXPECT_TRUE(rig.is_ok()) << rig.error().describe();
-  auto refused = registry.make_rig(sim_rig_config({{"scene", bad}, {"camera", camera}}));
-  ASSERT_FALSE(refused.is_ok());
-  EXPECT_NE(refused.error().message.find("materials[1].shininess: must be >= 1, got 0"), std::string::npos)
-      << refused.error().message;
-}
-
 TEST(SceneFiles, UnknownNamesAndMissingFilesAreErrors) {
   const auto unknown = make_scene("nonsense");
   ASSERT_FALSE(unknown.is_ok());
@@ -363,6 +345,24 @@ TEST(SceneFiles, BrokenFilesGetOneClearErrorNamingThePathAndTheRule) {
     EXPECT_EQ(scene.error().code, ErrorCode::kInvalidArgument) << scene.error().message;
     EXPECT_NE(scene.error().message.find(path), std::string::npos) << scene.error().message;
   }
+}
+
+TEST(SceneFiles, TheSimulatedRigTakesASceneFile) {
+  test::TempDir dir("scene_rig");
+  const std::string good = (dir.path() / "good.json").string(), bad = (dir.path() / "bad.json").string();
+  ASSERT_TRUE(save_scene_file(ggx_scene(), good).is_ok());
+  nlohmann::json broken = minimal_scene();
+  broken["materials"][1]["shininess"] = 0;
+  std::ofstream(bad) << broken.dump();
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  const nlohmann::json camera = {{"width", 32}, {"height", 24}, {"fx", 20.0}, {"fy", 20.0}};
+  auto rig = registry.make_rig(sim_rig_config({{"scene", good}, {"camera", camera}}));
+  EXPECT_TRUE(rig.is_ok()) << rig.error().describe();
+  auto refused = registry.make_rig(sim_rig_config({{"scene", bad}, {"camera", camera}}));
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_NE(refused.error().message.find("materials[1].shininess: must be >= 1, got 0"), std::string::npos)
+      << refused.error().message;
 }
 
 }  // namespace
