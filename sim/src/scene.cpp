@@ -1,8 +1,11 @@
 #include "vdrig/sim/scene.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <opencv2/core.hpp>
 
 #include "builtin_scenes.hpp"
 #include "vdrig/sim/ggx.hpp"
@@ -75,6 +78,35 @@ Vec3d apply_light(const SurfacePoint& sp, const Material& mat, const Vec3d& p, c
   return E.cwiseProduct(sp.kd + mat.ks * spec);
 }
 
+// The rectangle [x0, x1] x [y0, y1] a material's image is stretched over at (x, y): the disc's bounding square, the
+// patch's rectangle or the whole surface (in the order material_at() decides the material).
+std::array<double, 4> texture_rect(const Scene& s, int material, double x, double y) {
+  for (const Disc& d : s.markers)
+    if ((Vec2d(x, y) - d.centre_mm).squaredNorm() <= d.radius_mm * d.radius_mm)
+      return {d.centre_mm.x() - d.radius_mm, d.centre_mm.y() - d.radius_mm, d.centre_mm.x() + d.radius_mm,
+              d.centre_mm.y() + d.radius_mm};
+  for (auto it = s.patches.rbegin(); it != s.patches.rend(); ++it)
+    if (x >= it->x0_mm && x <= it->x1_mm && y >= it->y0_mm && y <= it->y1_mm && it->material == material)
+      return {it->x0_mm, it->y0_mm, it->x1_mm, it->y1_mm};
+  return {-s.width_mm / 2, -s.height_mm / 2, s.width_mm / 2, s.height_mm / 2};
+}
+
+// Bilinear sample (pixel centres at half-pixel offsets, clamped at the border) of an RGB CV_32FC3 image stretched
+// over rect.
+Vec3d texture_kd(const cv::Mat& image, const std::array<double, 4>& rect, double x, double y) {
+  const double px = (x - rect[0]) / (rect[2] - rect[0]) * image.cols - 0.5;
+  const double py = (y - rect[1]) / (rect[3] - rect[1]) * image.rows - 0.5;
+  const double fx = std::clamp(px, 0.0, image.cols - 1.0), fy = std::clamp(py, 0.0, image.rows - 1.0);
+  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
+  const double ax = fx - x0, ay = fy - y0;
+  auto at = [&](int c, int r) {
+    const cv::Vec3f& v = image.at<cv::Vec3f>(r, c);
+    return Vec3d(v[0], v[1], v[2]);
+  };
+  return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) + ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
+}
+
 }  // namespace
 
 int Scene::material_at(double x, double y) const {
@@ -92,7 +124,8 @@ SurfacePoint Scene::surface_at(double x, double y) const {
   if (sp.material < 0) return sp;
   const Material& m = materials[sp.material];
   if (m.bump_slope > 0.0) sp.normal = bump_normal(m, x, y);
-  sp.kd = m.printed && has_ink(m, x, y) ? m.ink_kd : m.kd;
+  sp.kd = m.kd_texture ? texture_kd(*m.kd_texture, texture_rect(*this, sp.material, x, y), x, y) : m.kd;
+  if (m.printed && has_ink(m, x, y)) sp.kd = m.ink_kd;
   return sp;
 }
 

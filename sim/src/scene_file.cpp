@@ -1,12 +1,16 @@
 #include "vdrig/sim/scene_file.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
+#include <opencv2/core.hpp>
 #include <sstream>
 
+#include "vdrig/core/image_io.hpp"
 #include "vdrig/core/settings.hpp"
 
 namespace vdrig::sim {
@@ -131,10 +135,57 @@ std::string indexed(const std::string& key, std::size_t i) { return key + "[" + 
 
 constexpr double kMax = std::numeric_limits<double>::max();
 
-Material read_material(Settings& root, const json& j, const std::string& path, std::size_t index) {
+float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+// A kd image as linear RGB CV_32FC3: PNG (8-bit sRGB-decoded, 16-bit linear; grey or colour) or OpenEXR (linear;
+// channels R, G, B or Y).
+Result<cv::Mat> load_kd_image(const std::filesystem::path& file) {
+  cv::Mat rgb;
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".exr") {
+    auto exr = read_exr(file);
+    if (!exr) return exr.error();
+    const int r = exr->find("R"), g = exr->find("G"), b = exr->find("B"), y = exr->find("Y");
+    if (r >= 0 && g >= 0 && b >= 0)
+      cv::merge(std::vector<cv::Mat>{exr->channels[r], exr->channels[g], exr->channels[b]}, rgb);
+    else if (y >= 0)
+      cv::merge(std::vector<cv::Mat>{exr->channels[y], exr->channels[y], exr->channels[y]}, rgb);
+    else
+      return make_error(ErrorCode::kCorrupt, file.string() + " has neither R, G, B nor Y channels");
+  } else if (ext == ".png") {
+    auto png = read_png(file);
+    if (!png) return png.error();
+    cv::Mat colour;
+    if (png->channels() == 1)
+      cv::merge(std::vector<cv::Mat>{*png, *png, *png}, colour);
+    else if (png->channels() == 3)
+      colour = *png;
+    else
+      return make_error(ErrorCode::kCorrupt, file.string() + " must be a grey or RGB PNG");
+    const bool eight_bit = colour.depth() == CV_8U;
+    colour.convertTo(rgb, CV_32FC3, eight_bit ? 1.0 / 255.0 : 1.0 / 65535.0);
+    if (eight_bit)
+      rgb.forEach<cv::Vec3f>([](cv::Vec3f& p, const int*) {
+        for (int c = 0; c < 3; ++c) p[c] = srgb_to_linear(p[c]);
+      });
+    std::vector<cv::Mat> bgr;
+    cv::split(rgb, bgr);
+    cv::merge(std::vector<cv::Mat>{bgr[2], bgr[1], bgr[0]}, rgb);
+  } else {
+    return make_error(ErrorCode::kInvalidArgument, "must be a .png or .exr file, got " + file.string());
+  }
+  double lo = 0;
+  cv::minMaxLoc(rgb.reshape(1), &lo);
+  if (!(lo >= 0)) return make_error(ErrorCode::kInvalidArgument, file.string() + " has negative or NaN values");
+  return rgb;
+}
+
+Material read_material(Settings& root, const json& j, const std::string& path, std::size_t index,
+                       const std::filesystem::path& base_dir) {
   ObjectReader r(root, j, path);
-  r.settings().reject_unknown({"name", "kind", "kd", "ks", "shininess", "roughness", "roughness_y", "f0", "bump_slope",
-                               "bump_period_mm", "printed", "ink_kd", "print_cell_mm"},
+  r.settings().reject_unknown({"name", "kind", "kd", "kd_image", "ks", "shininess", "roughness", "roughness_y", "f0",
+                               "bump_slope", "bump_period_mm", "printed", "ink_kd", "print_cell_mm"},
                               "field");
   Material m;
   m.name = r.settings().string("name", "material " + std::to_string(index));
@@ -154,12 +205,25 @@ Material read_material(Settings& root, const json& j, const std::string& path, s
   m.printed = r.settings().boolean("printed", m.printed);
   m.ink_kd = r.vec3("ink_kd", m.ink_kd, false, 0.0);
   m.print_cell_mm = r.number("print_cell_mm", m.print_cell_mm, 0.0, true);
+  if (r.settings().has("kd_image")) {
+    const std::string name = r.settings().required_string("kd_image");
+    if (!name.empty()) {
+      const std::filesystem::path file = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : base_dir / name;
+      auto image = load_kd_image(file);
+      if (image) {
+        m.kd_image = std::filesystem::absolute(file).lexically_normal().string();
+        m.kd_texture = std::make_shared<const cv::Mat>(std::move(image.value()));
+      } else {
+        r.fail("kd_image", image.error().message);
+      }
+    }
+  }
   return m;
 }
 
 }  // namespace
 
-Result<Scene> parse_scene(const json& j, const std::string& source) {
+Result<Scene> parse_scene(const json& j, const std::string& source, const std::filesystem::path& base_dir) {
   Settings root(j, "scene " + source);
   if (!j.is_object()) return root.error();
   Scene s;
@@ -185,7 +249,7 @@ Result<Scene> parse_scene(const json& j, const std::string& source) {
   if (j.contains("materials") && materials.empty() && j["materials"].is_array())
     root.fail("materials: needs at least one material (materials[0] is the background)");
   for (std::size_t i = 0; i < materials.size(); ++i)
-    s.materials.push_back(read_material(root, materials[i], indexed("materials", i), i));
+    s.materials.push_back(read_material(root, materials[i], indexed("materials", i), i, base_dir));
 
   const auto patches = objects(root, j, "patches", false);
   for (std::size_t i = 0; i < patches.size(); ++i) {
@@ -252,7 +316,7 @@ Result<Scene> load_scene_file(const std::string& path) {
   if (in.bad()) return make_error(ErrorCode::kIo, "cannot read scene file " + path);
   const json j = json::parse(text.str(), nullptr, false);
   if (j.is_discarded()) return make_error(ErrorCode::kInvalidArgument, "scene " + path + ": not valid JSON");
-  return parse_scene(j, path);
+  return parse_scene(j, path, std::filesystem::path(path).parent_path());
 }
 
 nlohmann::ordered_json scene_to_json(const Scene& s) {
@@ -262,6 +326,7 @@ nlohmann::ordered_json scene_to_json(const Scene& s) {
   json materials = json::array();
   for (const Material& m : s.materials) {
     json o = {{"name", m.name}, {"kd", v3(m.kd)}};
+    if (!m.kd_image.empty()) o["kd_image"] = m.kd_image;
     if (m.kind == MaterialKind::kGgx) {
       o["kind"] = "ggx";
       o["roughness"] = m.roughness;

@@ -9,6 +9,7 @@
 #include <iterator>
 #include <opencv2/core.hpp>
 
+#include "vdrig/core/image_io.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene_file.hpp"
@@ -142,6 +143,8 @@ void expect_equal(const Scene& a, const Scene& b) {
     EXPECT_EQ(x.printed, y.printed) << w;
     expect_equal_vec(x.ink_kd, y.ink_kd, w + " ink_kd");
     EXPECT_EQ(x.print_cell_mm, y.print_cell_mm) << w;
+    EXPECT_EQ(x.kd_image, y.kd_image) << w;
+    EXPECT_EQ(x.kd_texture != nullptr, y.kd_texture != nullptr) << w;
   }
   ASSERT_EQ(a.patches.size(), b.patches.size());
   for (std::size_t i = 0; i < a.patches.size(); ++i) {
@@ -324,6 +327,8 @@ TEST(SceneFiles, BrokenFilesGetOneClearErrorNamingThePathAndTheRule) {
        "area_lights[0].samples_per_axis: must be an integer, got 2.5"},
       {R"({"ambient": [0, 0, -1]})", "ambient[2]: must be >= 0, got -1"},
       {R"({"colour": "blue"})", "unknown field \"colour\""},
+      {R"({"materials": [{"kd_image": "/nonexistent/tex.png"}]})", "materials[0].kd_image: "},
+      {R"({"materials": [{"kd_image": "tex.jpg"}]})", "materials[0].kd_image: must be a .png or .exr file"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.patch);
@@ -363,6 +368,53 @@ TEST(SceneFiles, TheSimulatedRigTakesASceneFile) {
   ASSERT_FALSE(refused.is_ok());
   EXPECT_NE(refused.error().message.find("materials[1].shininess: must be >= 1, got 0"), std::string::npos)
       << refused.error().message;
+}
+
+TEST(SceneFiles, KdFromAnImageStretchedOverItsPatch) {
+  test::TempDir dir("scene_kd_image");
+  // 2 x 2 pixels, BGR as OpenCV stores them: row 0 = (255, 128, 0) RGB, (0, 0, 255); row 1 = grey 64, white.
+  cv::Mat png(2, 2, CV_8UC3);
+  png.at<cv::Vec3b>(0, 0) = {0, 128, 255};
+  png.at<cv::Vec3b>(0, 1) = {255, 0, 0};
+  png.at<cv::Vec3b>(1, 0) = {64, 64, 64};
+  png.at<cv::Vec3b>(1, 1) = {255, 255, 255};
+  ASSERT_TRUE(write_png(dir.path() / "tex.png", png).is_ok());
+  ExrImage exr;  // linear, one pixel
+  exr.add("R", cv::Mat(1, 1, CV_32F, cv::Scalar(0.25)));
+  exr.add("G", cv::Mat(1, 1, CV_32F, cv::Scalar(0.5)));
+  exr.add("B", cv::Mat(1, 1, CV_32F, cv::Scalar(2.0)));
+  ASSERT_TRUE(write_exr(dir.path() / "tex.exr", exr).is_ok());
+  nlohmann::json j = minimal_scene();
+  j["materials"][1]["kd_image"] = "tex.png";  // "gloss": the patch [-100, 0] x [-100, 0]
+  j["materials"][0]["kd_image"] = "tex.exr";  // the background: the whole surface
+  const std::string file = (dir.path() / "textured.json").string();
+  std::ofstream(file) << j.dump();
+  const auto scene = load_scene_file(file);
+  ASSERT_TRUE(scene.is_ok()) << scene.error().message;
+  auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  auto expect_kd = [&](double x, double y, const Vec3d& kd) {
+    const Vec3d got = scene->surface_at(x, y).kd;
+    EXPECT_LT((got - kd).norm(), 1e-6) << x << ", " << y << ": " << got.transpose() << " vs " << kd.transpose();
+  };
+  // Pixel centres: row 0 at the patch's smallest y.
+  expect_kd(-75, -75, Vec3d(1.0, srgb(128 / 255.0), 0.0));
+  expect_kd(-25, -75, Vec3d(0.0, 0.0, 1.0));
+  expect_kd(-75, -25, Vec3d::Constant(srgb(64 / 255.0)));
+  expect_kd(-25, -25, Vec3d::Ones());
+  expect_kd(-50, -75, Vec3d(0.5, 0.5 * srgb(128 / 255.0), 0.5));  // bilinear between the two top pixels
+  expect_kd(150, 100, Vec3d(0.25, 0.5, 2.0));                     // background: the EXR over the whole surface
+  // The radiance follows the local kd (a Lambertian background under the point light straight above it).
+  EXPECT_GT(scene->radiance(Vec3d(-25, -75, 0), Vec3d::UnitZ())[2],
+            scene->radiance(Vec3d(-75, -75, 0), Vec3d::UnitZ())[2]);
+
+  // Saved with the image's absolute path: the copy loads from anywhere.
+  const std::string copy = (dir.path() / "copy.json").string();
+  ASSERT_TRUE(save_scene_file(*scene, copy).is_ok());
+  const auto again = load_scene_file(copy);
+  ASSERT_TRUE(again.is_ok()) << again.error().message;
+  expect_equal(*again, *scene);
+  EXPECT_EQ(again->surface_at(-50, -75).kd, scene->surface_at(-50, -75).kd);
+  EXPECT_EQ(again->materials[1].kd_image, (dir.path() / "tex.png").lexically_normal().string());
 }
 
 }  // namespace

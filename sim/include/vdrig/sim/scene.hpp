@@ -17,12 +17,17 @@
 // Lambertian surface facing it to I / d^2.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/result.hpp"
+
+namespace cv {
+class Mat;
+}
 
 namespace vdrig::sim {
 
@@ -52,6 +57,12 @@ struct Material {
   bool printed = false;
   Vec3d ink_kd = Vec3d::Constant(0.05);
   double print_cell_mm = 1.0;
+  // kd from an image (scene files' "kd_image"): when set, kd at a point is the image's linear RGB (CV_32FC3, R G B
+  // order) bilinearly sampled, the image stretched over the rectangle of the patch the point lies in (the whole
+  // surface for the background, the disc's bounding square for a marker); image row 0 lies at the rectangle's
+  // smallest y, as in a parameter map. kd_image is the file it came from (absolute), kept for saving.
+  std::string kd_image = {};
+  std::shared_ptr<const cv::Mat> kd_texture = {};
 };
 
 /// An axis-aligned rectangle of the surface, [x0, x1] x [y0, y1] in mm, with one material.

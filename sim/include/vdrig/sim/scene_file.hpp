@@ -5,6 +5,7 @@
 // written with round-trip precision), so renders of the loaded scene are bit-identical.
 #pragma once
 
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -15,8 +16,10 @@ namespace vdrig::sim {
 
 inline constexpr int kSceneFormatVersion = 1;
 
-/// The scene described by `j`; `source` names it in error messages (a file name, "built-in scene bands").
-Result<Scene> parse_scene(const nlohmann::json& j, const std::string& source);
+/// The scene described by `j`; `source` names it in error messages (a file name, "built-in scene bands"). Relative
+/// "kd_image" paths are relative to `base_dir` (load_scene_file: the file's folder).
+Result<Scene> parse_scene(const nlohmann::json& j, const std::string& source,
+                          const std::filesystem::path& base_dir = {});
 /// Reads and parses a scene file (kIo when unreadable, kInvalidArgument for bad JSON or a bad scene).
 Result<Scene> load_scene_file(const std::string& path);
 /// The JSON form of a valid scene (fields at their default value are left out where the format has a default).
