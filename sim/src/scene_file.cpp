@@ -208,7 +208,8 @@ Material read_material(Settings& root, const json& j, const std::string& path, s
   if (r.settings().has("kd_image")) {
     const std::string name = r.settings().required_string("kd_image");
     if (!name.empty()) {
-      const std::filesystem::path file = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : base_dir / name;
+      const std::filesystem::path file =
+          std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : base_dir / name;
       auto image = load_kd_image(file);
       if (image) {
         m.kd_image = std::filesystem::absolute(file).lexically_normal().string();
