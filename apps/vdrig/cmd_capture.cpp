@@ -107,7 +107,7 @@ CommandRegistrar reg([](CLI::App& root) {
   auto a = std::make_shared<CaptureArgs>();
   auto* cmd = root.add_subcommand("capture", "capture a session (or --resume an interrupted one)");
   cmd->add_option("--rig", a->rig, "'sim' or a rig config JSON file")->capture_default_str();
-  cmd->add_option("--scene", a->scene, "simulator scene")->capture_default_str();
+  cmd->add_option("--scene", a->scene, "simulator scene: a built-in name or a scene FILE.json")->capture_default_str();
   cmd->add_option("--scheme", a->scheme, "sampling scheme (docs/sampling.md)")->capture_default_str();
   cmd->add_option("--bracket", a->bracket, "fixed:E1,E2,... or auto[:CEIL[:FLOOR]][@X,Y,W,H]")->capture_default_str();
   cmd->add_option("--out", a->out, "new session folder");

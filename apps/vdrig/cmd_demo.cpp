@@ -115,7 +115,8 @@ const CommandRegistrar kDemo([](CLI::App& root) {
   auto* cmd =
       root.add_subcommand("demo", "Simulated capture -> HDR -> observation map -> Phong fit -> rendered images");
   cmd->add_option("--out", args->out, "output folder")->capture_default_str();
-  cmd->add_option("--scene", args->scene, "simulated scene")->capture_default_str();
+  cmd->add_option("--scene", args->scene, "simulated scene: a built-in name or a scene FILE.json")
+      ->capture_default_str();
   cmd->add_option("--scheme", args->scheme, "sampling scheme (see docs/sampling.md)")->capture_default_str();
   cmd->add_option("--res", args->resolution, "parameter map resolution (texels per side)")
       ->capture_default_str()

@@ -163,7 +163,7 @@ CommandRegistrar reg([](CLI::App& root) {
       cmd->add_option("name", a->name, "session name ([A-Za-z0-9._-])")->required();
       cmd->add_option("--scheme", a->scheme, "sampling scheme")->capture_default_str();
       cmd->add_option("--bracket", a->bracket, "exposure bracket")->capture_default_str();
-      cmd->add_option("--scene", a->scene, "simulator scene");
+      cmd->add_option("--scene", a->scene, "simulator scene: a built-in name or a scene FILE.json");
     }
     if (std::string(verb) == "resume") cmd->add_option("name", a->name, "session name (default: the one in hand)");
     if (std::string(verb) == "status" || std::string(verb) == "resume")

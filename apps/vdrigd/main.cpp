@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
   app.add_option("--runtime-dir", runtime_dir, "folder of the control socket vdrigd.sock")->capture_default_str();
   app.add_option("--sessions-dir", sessions_dir, "folder holding the sessions")->required();
   app.add_option("--rig", rig_file, "rig config JSON (default: the simulator)");
-  app.add_option("--scene", scene, "simulator scene when no --rig is given")->capture_default_str();
+  app.add_option("--scene", scene, "simulator scene (a built-in name or a scene FILE.json) when no --rig is given")
+      ->capture_default_str();
   app.add_option("--allowed-gid", allowed_gid, "also accept clients of this group");
   app.add_option("--reserve-mb", reserve_mb, "free disk space to keep, MiB")->capture_default_str();
   app.add_option("--log-level", level, log::kLevelNames)->capture_default_str();

@@ -1,8 +1,15 @@
 #include "vdrig/sim/scene.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <opencv2/core.hpp>
+
+#include "builtin_scenes.hpp"
+#include "vdrig/sim/ggx.hpp"
+#include "vdrig/sim/scene_file.hpp"
 
 namespace vdrig::sim {
 namespace {
@@ -60,9 +67,44 @@ Vec3d apply_light(const SurfacePoint& sp, const Material& mat, const Vec3d& p, c
   if (cos_i <= 0.0) return Vec3d::Zero();
   const Vec3d E = intensity * (cos_i / d2);
   if (!specular) return E.cwiseProduct(sp.kd);
+  if (mat.kind == MaterialKind::kGgx) {
+    const Mat3d frame = ggx_local_frame(sp.normal);
+    const double ay = mat.roughness_y > 0.0 ? mat.roughness_y : mat.roughness;
+    const Vec3d f = ggx_brdf(frame * l, frame * v, mat.roughness, ay, mat.f0);
+    return E.cwiseProduct(sp.kd + kPi * f);
+  }
   const double rv = mirror_direction(l, sp.normal).dot(v);
   const double spec = rv > 0.0 ? std::pow(rv, mat.shininess) : 0.0;
   return E.cwiseProduct(sp.kd + mat.ks * spec);
+}
+
+// The rectangle [x0, x1] x [y0, y1] a material's image is stretched over at (x, y): the disc's bounding square, the
+// patch's rectangle or the whole surface (in the order material_at() decides the material).
+std::array<double, 4> texture_rect(const Scene& s, int material, double x, double y) {
+  for (const Disc& d : s.markers)
+    if ((Vec2d(x, y) - d.centre_mm).squaredNorm() <= d.radius_mm * d.radius_mm)
+      return {d.centre_mm.x() - d.radius_mm, d.centre_mm.y() - d.radius_mm, d.centre_mm.x() + d.radius_mm,
+              d.centre_mm.y() + d.radius_mm};
+  for (auto it = s.patches.rbegin(); it != s.patches.rend(); ++it)
+    if (x >= it->x0_mm && x <= it->x1_mm && y >= it->y0_mm && y <= it->y1_mm && it->material == material)
+      return {it->x0_mm, it->y0_mm, it->x1_mm, it->y1_mm};
+  return {-s.width_mm / 2, -s.height_mm / 2, s.width_mm / 2, s.height_mm / 2};
+}
+
+// Bilinear sample (pixel centres at half-pixel offsets, clamped at the border) of an RGB CV_32FC3 image stretched
+// over rect.
+Vec3d texture_kd(const cv::Mat& image, const std::array<double, 4>& rect, double x, double y) {
+  const double px = (x - rect[0]) / (rect[2] - rect[0]) * image.cols - 0.5;
+  const double py = (y - rect[1]) / (rect[3] - rect[1]) * image.rows - 0.5;
+  const double fx = std::clamp(px, 0.0, image.cols - 1.0), fy = std::clamp(py, 0.0, image.rows - 1.0);
+  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
+  const double ax = fx - x0, ay = fy - y0;
+  auto at = [&](int c, int r) {
+    const cv::Vec3f& v = image.at<cv::Vec3f>(r, c);
+    return Vec3d(v[0], v[1], v[2]);
+  };
+  return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) + ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
 }
 
 }  // namespace
@@ -82,7 +124,8 @@ SurfacePoint Scene::surface_at(double x, double y) const {
   if (sp.material < 0) return sp;
   const Material& m = materials[sp.material];
   if (m.bump_slope > 0.0) sp.normal = bump_normal(m, x, y);
-  sp.kd = m.printed && has_ink(m, x, y) ? m.ink_kd : m.kd;
+  sp.kd = m.kd_texture ? texture_kd(*m.kd_texture, texture_rect(*this, sp.material, x, y), x, y) : m.kd;
+  if (m.printed && has_ink(m, x, y)) sp.kd = m.ink_kd;
   return sp;
 }
 
@@ -91,7 +134,7 @@ Vec3d Scene::radiance(const Vec3d& p, const Vec3d& v) const {
   const SurfacePoint sp = surface_at(p.x(), p.y());
   if (sp.material < 0) return Vec3d::Zero();
   const Material& mat = materials[sp.material];
-  const bool specular = !mat.ks.isZero();  // Lambertian materials skip pow
+  const bool specular = mat.kind == MaterialKind::kGgx || !mat.ks.isZero();  // Lambertian materials skip pow
   Vec3d L = sp.kd.cwiseProduct(ambient);
   for (const PointLight& light : lights) L += apply_light(sp, mat, p, v, light.position_mm, light.intensity, specular);
   for (const AreaLight& a : area_lights) {
@@ -114,6 +157,7 @@ std::optional<PhongTruth> Scene::phong_truth(const Vec3d& p) const {
   const SurfacePoint sp = surface_at(p.x(), p.y());
   if (sp.material < 0) return std::nullopt;
   const Material& mat = materials[sp.material];
+  if (mat.kind != MaterialKind::kPhong) return std::nullopt;
   const Vec3d to_light = lights[0].position_mm - p;
   const double d2 = to_light.squaredNorm();
   const Vec3d l = to_light / std::sqrt(d2);
@@ -137,6 +181,9 @@ bool Scene::is_valid(std::string* why) const {
   if (!(width_mm > 0) || !(height_mm > 0)) return fail("surface size must be positive");
   if (materials.empty()) return fail("needs at least a background material");
   for (const auto& m : materials) {
+    if (m.kind == MaterialKind::kGgx &&
+        (!(m.roughness > 0) || m.roughness_y < 0 || (m.f0.array() < 0).any() || (m.f0.array() > 1).any()))
+      return fail("material " + m.name + " needs roughness > 0, roughness_y >= 0 and f0 in [0, 1]");
     if (m.shininess < 1.0 || (m.kd.array() < 0).any() || (m.ks.array() < 0).any())
       return fail("material " + m.name + " needs kd, ks >= 0 and shininess >= 1");
     if (m.bump_slope < 0 || !(m.bump_period_mm > 0) || !(m.print_cell_mm > 0))
@@ -155,104 +202,24 @@ bool Scene::is_valid(std::string* why) const {
 
 double band_shininess(int k) { return 2.0 * std::pow(250.0, k / 7.0); }
 
-namespace {
-
-// The light of the source method's test setup: a white point light at (1500, 1500, 2000) mm. Its intensity is
-// chosen so the irradiance at the surface centre is 1 (d^2 = 8.5e6 mm^2, cos = 0.686).
-PointLight standard_light() {
-  const Vec3d pos(1500, 1500, 2000);
-  const double d2 = pos.squaredNorm();
-  return {pos, Vec3d::Constant(d2 / (pos.z() / std::sqrt(d2)))};
+std::vector<std::string> scene_names() {
+  std::vector<std::string> names;
+  for (const auto& file : builtin_scene_files()) names.emplace_back(file.name);
+  return names;
 }
-
-// Four black discs, 30 mm radius, centred 50 mm in from each corner; order (-,-), (+,-), (+,+), (-,+).
-void add_corner_markers(Scene& s) {
-  s.materials.push_back({"marker black", Vec3d::Constant(0.02), Vec3d::Zero(), 1.0});
-  const int m = static_cast<int>(s.materials.size()) - 1;
-  const double x = s.width_mm / 2 - 50, y = s.height_mm / 2 - 50;
-  s.markers = {{{-x, -y}, 30.0, m}, {{x, -y}, 30.0, m}, {{x, y}, 30.0, m}, {{-x, y}, 30.0, m}};
-}
-
-// Eight bands of one colour, shininess m = 2 .. 500, over [x0, x1] x [y0, y1].
-void add_bands(Scene& s, double x0, double y0, double x1, double y1) {
-  const double w = (x1 - x0) / 8.0;
-  for (int k = 0; k < 8; ++k) {
-    char name[32];
-    std::snprintf(name, sizeof name, "band m=%.0f", band_shininess(k));
-    s.materials.push_back({name, {0.25, 0.30, 0.35}, {0.45, 0.45, 0.45}, band_shininess(k)});
-    s.patches.push_back({x0 + k * w, y0, x0 + (k + 1) * w, y1, static_cast<int>(s.materials.size()) - 1});
-  }
-}
-
-Scene patchwork() {
-  Scene s;
-  s.name = "patchwork";
-  // Indices 0..2 are relied on by callers (the demo takes the first Lambertian patch, red cloth, as its region).
-  s.materials = {
-      {"paper", {0.70, 0.68, 0.62}, {0.02, 0.02, 0.02}, 4.0},
-      {"red cloth", {0.60, 0.08, 0.06}, {0, 0, 0}, 1.0},
-      {"glossy plastic", {0.10, 0.20, 0.45}, {0.50, 0.50, 0.50}, 60.0},
-  };
-  Material metal{"brushed metal", {0.04, 0.035, 0.03}, {0.75, 0.62, 0.45}, 150.0};
-  metal.bump_slope = 0.08;
-  metal.bump_period_mm = 6.0;
-  Material print{"printed paper", {0.80, 0.78, 0.72}, {0.03, 0.03, 0.03}, 8.0};
-  print.printed = true;
-  print.ink_kd = {0.05, 0.05, 0.07};
-  s.materials.push_back(metal);
-  s.materials.push_back(print);
-  // Red diffuse patch in the -x,-y quadrant; glossy patch in the +x,-y quadrant; metal and print above them; the
-  // shininess band near the top; paper elsewhere (and around the corner markers).
-  s.patches = {{-400, -400, -50, -50, 1}, {50, -400, 400, -50, 2}, {-400, 50, -50, 250, 3}, {50, 50, 400, 250, 4}};
-  add_bands(s, -400, 290, 400, 400);
-  add_corner_markers(s);
-  s.lights = {standard_light()};
-  return s;
-}
-
-Scene bands() {
-  Scene s;
-  s.name = "bands";
-  s.materials = {{"paper", {0.70, 0.68, 0.62}, {0.02, 0.02, 0.02}, 4.0}};
-  add_bands(s, -400, -400, 400, 400);
-  add_corner_markers(s);
-  s.lights = {standard_light()};
-  return s;
-}
-
-Scene lights2() {
-  Scene s = patchwork();
-  s.name = "lights2";
-  s.lights.push_back({Vec3d(-1500, 1000, 2000), s.lights[0].intensity * 0.4});
-  return s;
-}
-
-Scene softbox() {
-  Scene s = patchwork();
-  s.name = "softbox";
-  const PointLight p = standard_light();
-  // A 400 x 400 mm panel at the point light's place, facing the surface centre.
-  const Vec3d nrm = (-p.position_mm).normalized();
-  const Vec3d u = Vec3d::UnitZ().cross(nrm).normalized() * 400.0;
-  const Vec3d v = nrm.cross(u).normalized() * 400.0;  // u x v = 400^2 nrm: emits toward the surface
-  s.lights.clear();
-  s.area_lights = {{p.position_mm, u, v, p.intensity, 6}};
-  s.ambient = Vec3d::Constant(0.05);
-  return s;
-}
-
-}  // namespace
-
-std::vector<std::string> scene_names() { return {"patchwork", "bands", "lights2", "softbox"}; }
 
 Result<Scene> make_scene(const std::string& name) {
-  if (name == "patchwork") return patchwork();
-  if (name == "bands") return bands();
-  if (name == "lights2") return lights2();
-  if (name == "softbox") return softbox();
+  if (name.size() > 5 && name.ends_with(".json")) return load_scene_file(name);
+  for (const auto& file : builtin_scene_files())
+    if (name == file.name) {
+      auto scene = parse_scene(nlohmann::json::parse(file.json), "built-in scene " + name);
+      VDRIG_CHECK(scene.is_ok(), "built-in scene files are valid: " + scene.error().message);
+      return scene;
+    }
   std::string known;
   for (const auto& n : scene_names()) known += (known.empty() ? "" : ", ") + n;
-  return make_error(ErrorCode::kInvalidArgument, "unknown scene \"" + name + "\"; known: " + known);
+  return make_error(ErrorCode::kInvalidArgument,
+                    "unknown scene \"" + name + "\"; known: " + known + " (or a scene file NAME.json)");
 }
 
 }  // namespace vdrig::sim

@@ -1,0 +1,83 @@
+// Evaluation of a fitted parameter map against the simulator's ground truth, whatever the model: per texel, the
+// relative RMS error of the map's radiance against the scene's true radiance over a dense set of directions on the
+// upper hemisphere (and, given a session, over the directions that session sampled), summarised per material.
+//
+// Relative RMS of a texel over directions v_i and channels c: sqrt(sum (L_map - L_true)^2 / sum L_true^2) at the
+// texel centre (a map whose Kd is 1.1 times a Lambertian truth scores exactly 0.1). Texels whose footprint touches
+// more than one material (edges, marker rims) or lies outside the surface are in the error map but not in the
+// per-material statistics. Where the truth is of Phong form (Scene::phong_truth) and the map is a Phong map, the
+// Phong parameters are compared too.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/core/result.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/sim/scene.hpp"
+
+namespace vdrig::pipeline {
+
+struct EvalOptions {
+  int dense_directions = 1000;  // Fibonacci points on the upper hemisphere (uniform in solid angle)
+  /// A session whose views' directions are evaluated too (the view centres as the stage measured them, seen from
+  /// each texel); empty = none.
+  std::filesystem::path session_dir;
+};
+
+/// Mean and 95th percentile of the texels' relative RMS.
+struct RelativeRmsStats {
+  double mean = 0.0;
+  double p95 = 0.0;
+};
+
+/// Mean relative Phong parameter errors of a material's texels: |Kd_fit - Kd_true| / |Kd_true| (RGB norms), the
+/// same for Ks of the fit's strongest lobe, and |m_fit - m_true| / m_true. ks_rel and shininess_rel are NaN when the
+/// truth has no lobe (Lambertian).
+struct PhongParameterErrors {
+  double kd_rel = 0.0;
+  double ks_rel = 0.0;
+  double shininess_rel = 0.0;
+};
+
+struct MaterialEval {
+  std::string name;
+  int texels = 0;  // texels entirely on this material
+  RelativeRmsStats dense;
+  bool has_session = false;
+  RelativeRmsStats session;  // when has_session
+  bool has_phong = false;
+  PhongParameterErrors phong;  // when has_phong
+};
+
+struct EvalReport {
+  std::string model;  // the map's model name
+  int dense_directions = 0;
+  int session_views = 0;                // 0 without a session
+  std::vector<MaterialEval> materials;  // materials with at least one texel, in the scene's order
+  /// One float channel per texel: "rel_rms" (dense), "rel_rms.session" (with a session) and "material" (the scene
+  /// material index at the texel centre; -1 outside the surface, -2 on a texel that touches several materials).
+  ExrImage error_map;
+
+  nlohmann::json to_json() const;
+  /// A plain-text table, one row per material.
+  std::string table() const;
+};
+
+/// n unit directions on the upper hemisphere (z > 0), a Fibonacci spiral: deterministic and uniform in solid angle.
+std::vector<Vec3d> hemisphere_directions(int n);
+
+/// The relative RMS of texel (s, t) of `map` against the scene's radiance at the texel centre over `directions`
+/// (NaN when the truth is black there).
+double texel_relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene,
+                          const std::vector<Vec3d>& directions);
+
+/// Evaluates `map` against `scene` (kInvalidArgument when the map's surface size differs from the scene's; session
+/// errors as capture::Session::open).
+Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Scene& scene, const EvalOptions& options);
+
+}  // namespace vdrig::pipeline

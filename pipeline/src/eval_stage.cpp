@@ -1,0 +1,253 @@
+#include "vdrig/pipeline/eval_stage.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <opencv2/core/utility.hpp>
+
+#include "ground_truth.hpp"
+#include "vdrig/capture/session.hpp"
+#include "vdrig/fitting/phong_model.hpp"
+
+namespace vdrig::pipeline {
+namespace {
+
+constexpr float kOutside = -1.0f, kMixed = -2.0f;
+
+// Relative RMS of the map at texel (s, t) against the truth at p over `directions`; NaN when the truth is black.
+double relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene, const Vec3d& p,
+                    const std::vector<Vec3d>& directions) {
+  double err2 = 0.0, truth2 = 0.0;
+  for (const Vec3d& v : directions) {
+    const Vec3d truth = scene.radiance(p, v);
+    err2 += (map.evaluate(s, t, v) - truth).squaredNorm();
+    truth2 += truth.squaredNorm();
+  }
+  return truth2 > 0.0 ? std::sqrt(err2 / truth2) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The scene material under the whole texel footprint, kMixed when it changes, kOutside off the surface.
+float texel_material(const sim::Scene& scene, const Vec3d& centre, double half_w, double half_h) {
+  const int m = scene.material_at(centre.x(), centre.y());
+  if (m < 0) return kOutside;
+  constexpr int kProbes = 5;  // a 5 x 5 grid over the footprint
+  for (int j = 0; j < kProbes; ++j)
+    for (int i = 0; i < kProbes; ++i) {
+      const double x = centre.x() + half_w * (2.0 * i / (kProbes - 1) - 1.0) * 0.999;
+      const double y = centre.y() + half_h * (2.0 * j / (kProbes - 1) - 1.0) * 0.999;
+      if (scene.material_at(x, y) != m) return kMixed;
+    }
+  return static_cast<float>(m);
+}
+
+RelativeRmsStats stats(std::vector<double> values) {
+  RelativeRmsStats out;
+  if (values.empty()) return out;
+  std::sort(values.begin(), values.end());
+  double sum = 0.0;
+  for (double v : values) sum += v;
+  out.mean = sum / static_cast<double>(values.size());
+  const auto k = static_cast<size_t>(std::ceil(0.95 * static_cast<double>(values.size()))) - 1;
+  out.p95 = values[std::min(k, values.size() - 1)];
+  return out;
+}
+
+// Camera centres (surface frame) of the session's views, from the first frame's measured pan/tilt of each complete
+// view and the simulated rig's geometry (the nominal geometry for a hardware rig).
+Result<std::vector<Vec3d>> session_camera_centres(const std::filesystem::path& dir) {
+  auto session = capture::Session::open(dir);
+  if (!session) return session.error();
+  auto truth = ground_truth_of(session->manifest().rig_config);
+  if (!truth) return truth.error();
+  const rig::RigGeometry geometry = truth->has_value() ? (*truth)->geometry : rig::RigGeometry{};
+  std::vector<Vec3d> centres;
+  for (const auto& view : session->manifest().views) {
+    if (!session->view_complete(view.index)) continue;
+    const auto frames = session->frames_of_view(view.index);
+    if (frames.empty()) continue;
+    centres.push_back(rig::surface_pose(geometry, frames.front().measured).camera_centre());
+  }
+  if (centres.empty())
+    return make_error(ErrorCode::kInvalidArgument, "session " + dir.string() + " has no complete view");
+  return centres;
+}
+
+}  // namespace
+
+std::vector<Vec3d> hemisphere_directions(int n) {
+  std::vector<Vec3d> out;
+  out.reserve(static_cast<size_t>(std::max(n, 0)));
+  const double golden = kPi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - (i + 0.5) / n;  // uniform in z: uniform in solid angle
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    out.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+  }
+  return out;
+}
+
+double texel_relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene,
+                          const std::vector<Vec3d>& directions) {
+  const Vec3d p = texel_centre_mm(s, t, map.texels_s(), map.texels_t(), map.width_mm(), map.height_mm());
+  return relative_rms(map, s, t, scene, p, directions);
+}
+
+Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Scene& scene, const EvalOptions& options) {
+  if (options.dense_directions < 1)
+    return make_error(ErrorCode::kInvalidArgument, "eval needs at least one dense direction");
+  if (std::abs(map.width_mm() - scene.width_mm) > 1e-6 || std::abs(map.height_mm() - scene.height_mm) > 1e-6)
+    return make_error(ErrorCode::kInvalidArgument, "the map covers " + std::to_string(map.width_mm()) + " x " +
+                                                       std::to_string(map.height_mm()) + " mm but scene " + scene.name +
+                                                       " is " + std::to_string(scene.width_mm) + " x " +
+                                                       std::to_string(scene.height_mm) + " mm");
+  std::vector<Vec3d> camera_centres;
+  if (!options.session_dir.empty()) {
+    auto centres = session_camera_centres(options.session_dir);
+    if (!centres) return centres.error();
+    camera_centres = std::move(centres.value());
+  }
+  const bool with_session = !camera_centres.empty();
+  const bool phong_map = map.model().family() == "phong";
+  const int S = map.texels_s(), T = map.texels_t();
+  const double half_w = map.width_mm() / S / 2.0, half_h = map.height_mm() / T / 2.0;
+  const std::vector<Vec3d> dense = hemisphere_directions(options.dense_directions);
+
+  cv::Mat rel(T, S, CV_32F), rel_session(T, S, CV_32F), material(T, S, CV_32F);
+  struct PhongTexel {
+    double kd = 0, ks = 0, m = 0;
+    bool has_lobe = false, valid = false;
+  };
+  std::vector<PhongTexel> phong(static_cast<size_t>(S) * T);
+  cv::parallel_for_(cv::Range(0, T), [&](const cv::Range& rows) {
+    std::vector<Vec3d> sampled;
+    for (int t = rows.start; t < rows.end; ++t)
+      for (int s = 0; s < S; ++s) {
+        const Vec3d p = texel_centre_mm(s, t, S, T, map.width_mm(), map.height_mm());
+        material.at<float>(t, s) = texel_material(scene, p, half_w, half_h);
+        rel.at<float>(t, s) = static_cast<float>(relative_rms(map, s, t, scene, p, dense));
+        if (with_session) {
+          sampled.clear();
+          for (const Vec3d& c : camera_centres)
+            if (c.z() > p.z()) sampled.push_back((c - p).normalized());
+          rel_session.at<float>(t, s) = static_cast<float>(relative_rms(map, s, t, scene, p, sampled));
+        }
+        if (!phong_map) continue;
+        const auto truth = scene.phong_truth(p);
+        if (!truth || truth->kd.isZero()) continue;
+        const fitting::PhongParams fit = fitting::phong_texel(map, s, t);
+        PhongTexel& out = phong[static_cast<size_t>(t) * S + s];
+        out.valid = true;
+        out.kd = (fit.kd - truth->kd).norm() / truth->kd.norm();
+        if (!truth->ks.isZero()) {
+          out.has_lobe = true;
+          const fitting::PhongLobe* best = nullptr;
+          for (const auto& lobe : fit.lobes)
+            if (!best || lobe.ks.sum() > best->ks.sum()) best = &lobe;
+          out.ks = best ? (best->ks - truth->ks).norm() / truth->ks.norm() : 1.0;
+          out.m = best ? std::abs(best->shininess - truth->shininess) / truth->shininess : 1.0;
+        }
+      }
+  });
+
+  EvalReport report;
+  report.model = map.model().name();
+  report.dense_directions = options.dense_directions;
+  report.session_views = static_cast<int>(camera_centres.size());
+  report.error_map.add("rel_rms", rel);
+  if (with_session) report.error_map.add("rel_rms.session", rel_session);
+  report.error_map.add("material", material);
+  report.error_map.string_attributes["vdrig.eval_scene"] = scene.name;
+  report.error_map.string_attributes["vdrig.eval_model"] = report.model;
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    std::vector<double> dense_values, session_values;
+    double kd = 0, ks = 0, shininess = 0;
+    int n_phong = 0, n_lobe = 0, texels = 0;
+    for (int t = 0; t < T; ++t)
+      for (int s = 0; s < S; ++s) {
+        if (material.at<float>(t, s) != static_cast<float>(m)) continue;
+        ++texels;
+        if (std::isfinite(rel.at<float>(t, s))) dense_values.push_back(rel.at<float>(t, s));
+        if (with_session && std::isfinite(rel_session.at<float>(t, s)))
+          session_values.push_back(rel_session.at<float>(t, s));
+        const PhongTexel& pt = phong[static_cast<size_t>(t) * S + s];
+        if (!pt.valid) continue;
+        ++n_phong, kd += pt.kd;
+        if (pt.has_lobe) ++n_lobe, ks += pt.ks, shininess += pt.m;
+      }
+    if (texels == 0) continue;
+    MaterialEval e;
+    e.name = scene.materials[m].name;
+    e.texels = texels;
+    e.dense = stats(dense_values);
+    e.has_session = with_session;
+    if (with_session) e.session = stats(session_values);
+    if (n_phong > 0) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      e.has_phong = true;
+      e.phong = {kd / n_phong, n_lobe ? ks / n_lobe : nan, n_lobe ? shininess / n_lobe : nan};
+    }
+    report.materials.push_back(e);
+  }
+  return report;
+}
+
+nlohmann::json EvalReport::to_json() const {
+  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  nlohmann::json rows = nlohmann::json::array();
+  for (const MaterialEval& m : materials) {
+    nlohmann::json row = {{"material", m.name},
+                          {"texels", m.texels},
+                          {"rel_rms_mean", number(m.dense.mean)},
+                          {"rel_rms_p95", number(m.dense.p95)}};
+    if (m.has_session) {
+      row["session_rel_rms_mean"] = number(m.session.mean);
+      row["session_rel_rms_p95"] = number(m.session.p95);
+    }
+    if (m.has_phong) {
+      row["kd_rel_error"] = number(m.phong.kd_rel);
+      row["ks_rel_error"] = number(m.phong.ks_rel);
+      row["shininess_rel_error"] = number(m.phong.shininess_rel);
+    }
+    rows.push_back(row);
+  }
+  return {
+      {"model", model}, {"dense_directions", dense_directions}, {"session_views", session_views}, {"materials", rows}};
+}
+
+std::string EvalReport::table() const {
+  auto pct = [](double x) {
+    char buf[32];
+    if (std::isfinite(x))
+      std::snprintf(buf, sizeof buf, "%8.2f", 100.0 * x);
+    else
+      std::snprintf(buf, sizeof buf, "%8s", "-");
+    return std::string(buf);
+  };
+  const bool session = session_views > 0;
+  bool phong = false;
+  for (const auto& m : materials) phong = phong || m.has_phong;
+  std::string out = "model " + model + ", relative RMS in % over " + std::to_string(dense_directions) + " directions" +
+                    (session ? " and the session's " + std::to_string(session_views) + " views" : "") + "\n";
+  char line[256];
+  std::snprintf(line, sizeof line, "%-20s %7s %8s %8s", "material", "texels", "mean", "p95");
+  out += line;
+  if (session) out += "  sess.mean sess.p95";
+  if (phong) out += "    Kd err   Ks err    m err";
+  out += "\n";
+  for (const MaterialEval& m : materials) {
+    std::snprintf(line, sizeof line, "%-20.20s %7d", m.name.c_str(), m.texels);
+    out += line + pct(m.dense.mean) + " " + pct(m.dense.p95);
+    if (session) out += "   " + pct(m.session.mean) + " " + pct(m.session.p95);
+    if (phong) {
+      if (m.has_phong)
+        out += "  " + pct(m.phong.kd_rel) + " " + pct(m.phong.ks_rel) + " " + pct(m.phong.shininess_rel);
+      else
+        out += "  " + pct(NAN) + " " + pct(NAN) + " " + pct(NAN);
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace vdrig::pipeline

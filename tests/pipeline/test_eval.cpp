@@ -1,0 +1,184 @@
+// vdrig eval's library half (pipeline/eval_stage.hpp): a Phong map made from the scene's own truth scores zero, the
+// same map with Kd scaled by 1.1 scores exactly 10 % on the diffuse texels (and a Kd error of 10 %), the error map
+// holds the per-texel figures, and the dense directions cover the upper hemisphere uniformly.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/pipeline/eval_stage.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/sim/scene_file.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
+
+namespace vdrig::pipeline {
+namespace {
+
+// A phong:1 map of `scene` whose texels are the truth at their centres, with Kd scaled by kd_scale.
+fitting::ParameterMap truth_map(const sim::Scene& scene, int texels, double kd_scale) {
+  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), texels, texels, scene.width_mm, scene.height_mm);
+  for (int t = 0; t < texels; ++t)
+    for (int s = 0; s < texels; ++s) {
+      const auto truth = scene.phong_truth(texel_centre_mm(s, t, texels, texels, scene.width_mm, scene.height_mm));
+      if (!truth) continue;
+      fitting::PhongParams p;
+      p.kd = truth->kd * kd_scale;
+      p.lobes = {{truth->ks, truth->mirror_dir, truth->shininess}};
+      fitting::set_phong_texel(map, s, t, p);
+    }
+  return map;
+}
+
+const MaterialEval& row(const EvalReport& report, const std::string& name) {
+  for (const auto& m : report.materials)
+    if (m.name == name) return m;
+  ADD_FAILURE() << "no row for " << name;
+  return report.materials.front();
+}
+
+TEST(Eval, TheTruthItselfScoresZero) {
+  const sim::Scene scene = sim::make_scene("patchwork").value();
+  EvalOptions options;
+  options.dense_directions = 300;
+  const auto report = evaluate_map(truth_map(scene, 40, 1.0), scene, options);
+  ASSERT_TRUE(report.is_ok()) << report.error().message;
+  ASSERT_FALSE(report->materials.empty());
+  for (const auto& m : report->materials) {
+    EXPECT_GT(m.texels, 0) << m.name;
+    EXPECT_LT(m.dense.p95, 1e-5) << m.name;  // float storage of the parameters
+    ASSERT_TRUE(m.has_phong) << m.name;
+    EXPECT_LT(m.phong.kd_rel, 1e-5) << m.name;
+  }
+}
+
+TEST(Eval, KdScaledByTenPercentGivesTenPercentOnDiffuseTexels) {
+  const sim::Scene scene = sim::make_scene("patchwork").value();
+  const auto report = evaluate_map(truth_map(scene, 50, 1.1), scene, EvalOptions{});
+  ASSERT_TRUE(report.is_ok()) << report.error().message;
+  EXPECT_EQ(report->dense_directions, 1000);
+  const MaterialEval& cloth = row(*report, "red cloth");  // Lambertian
+  EXPECT_GT(cloth.texels, 200);
+  EXPECT_NEAR(cloth.dense.mean, 0.1, 1e-5);
+  EXPECT_NEAR(cloth.dense.p95, 0.1, 1e-5);
+  ASSERT_TRUE(cloth.has_phong);
+  EXPECT_NEAR(cloth.phong.kd_rel, 0.1, 1e-5);
+  EXPECT_TRUE(std::isnan(cloth.phong.ks_rel));  // no lobe in the truth
+  // Glossy texels: the lobe is exact, so the error is below 10 % but not zero; the lobe's parameters are exact.
+  const MaterialEval& glossy = row(*report, "glossy plastic");
+  EXPECT_GT(glossy.dense.mean, 0.01);
+  EXPECT_LT(glossy.dense.mean, 0.1);
+  EXPECT_NEAR(glossy.phong.kd_rel, 0.1, 1e-5);
+  EXPECT_LT(glossy.phong.ks_rel, 1e-5);
+  EXPECT_LT(glossy.phong.shininess_rel, 1e-5);
+
+  // The error map: one value per texel; the table and the JSON carry the same figures.
+  const ExrImage& e = report->error_map;
+  ASSERT_EQ(e.width, 50);
+  ASSERT_GE(e.find("rel_rms"), 0);
+  ASSERT_GE(e.find("material"), 0);
+  EXPECT_LT(e.find("rel_rms.session"), 0);  // no session given
+  const cv::Mat& rel = e.channels[e.find("rel_rms")];
+  const cv::Mat& material = e.channels[e.find("material")];
+  int cloth_texels = 0;
+  for (int t = 0; t < 50; ++t)
+    for (int s = 0; s < 50; ++s)
+      if (material.at<float>(t, s) == 1.0f) {  // red cloth is material 1
+        ++cloth_texels;
+        EXPECT_NEAR(rel.at<float>(t, s), 0.1, 1e-5);
+      }
+  EXPECT_EQ(cloth_texels, cloth.texels);
+  test::TempDir dir("eval_map");
+  ASSERT_TRUE(write_exr(dir.path() / "err.exr", e).is_ok());
+  const auto back = read_exr(dir.path() / "err.exr");
+  ASSERT_TRUE(back.is_ok());
+  EXPECT_GE(back->find("rel_rms"), 0);  // OpenEXR stores channels sorted by name
+  EXPECT_GE(back->find("material"), 0);
+  const auto j = report->to_json();
+  EXPECT_EQ(j["model"], "phong:1");
+  EXPECT_NE(report->table().find("red cloth"), std::string::npos);
+  bool found = false;
+  for (const auto& r : j["materials"])
+    if (r["material"] == "red cloth") {
+      found = true;
+      EXPECT_NEAR(r["rel_rms_mean"].get<double>(), 0.1, 1e-5);
+      EXPECT_TRUE(r["ks_rel_error"].is_null());
+    }
+  EXPECT_TRUE(found);
+}
+
+TEST(Eval, OverTheDirectionsASessionSampled) {
+  // A session captured from a scene file (the sim config's "scene" takes FILE.json like --scene).
+  test::TempDir dir("eval_session");
+  const sim::Scene scene = sim::make_scene("patchwork").value();
+  const std::string scene_file = (dir.path() / "patchwork copy.json").string();
+  ASSERT_TRUE(sim::save_scene_file(scene, scene_file).is_ok());
+  CaptureRequest req;
+  req.out_dir = dir.path() / "session";
+  req.rig_config = sim::sim_rig_config(
+      {{"scene", scene_file}, {"camera", {{"width", 160}, {"height", 120}, {"fx", 200.0}, {"fy", 200.0}}}});
+  req.scheme = "latlong:3";
+  req.exposures_s = {0.25};
+  auto session = capture_session(req);
+  ASSERT_TRUE(session) << session.error().describe();
+
+  EvalOptions options;
+  options.dense_directions = 200;
+  options.session_dir = req.out_dir;
+  const auto report = evaluate_map(truth_map(scene, 20, 1.1), scene, options);
+  ASSERT_TRUE(report.is_ok()) << report.error().message;
+  EXPECT_EQ(report->session_views, session->completed_view_count());
+  EXPECT_GE(report->error_map.find("rel_rms.session"), 0);
+  const MaterialEval& cloth = row(*report, "red cloth");
+  ASSERT_TRUE(cloth.has_session);
+  EXPECT_NEAR(cloth.session.mean, 0.1, 1e-5);  // Lambertian: 10 % in every direction
+  // Glossy texels: the error depends on the directions (more of them near the highlight in the dense set or not).
+  const MaterialEval& glossy = row(*report, "glossy plastic");
+  EXPECT_GT(glossy.session.mean, 0.0);
+  EXPECT_LT(glossy.session.mean, 0.1);
+  EXPECT_NE(glossy.session.mean, glossy.dense.mean);
+  EXPECT_NE(report->table().find("sess.mean"), std::string::npos);
+
+  options.session_dir = dir.path() / "no such session";
+  EXPECT_FALSE(evaluate_map(truth_map(scene, 4, 1.0), scene, options).is_ok());
+}
+
+TEST(Eval, GgxTruthIsModelMismatchForAPhongMap) {
+  // The same map against a scene whose glossy patch became GGX: the Phong truth map no longer matches there.
+  sim::Scene scene = sim::make_scene("patchwork").value();
+  const fitting::ParameterMap map = truth_map(scene, 40, 1.0);
+  scene.materials[2].kind = sim::MaterialKind::kGgx;
+  scene.materials[2].roughness = 0.2;
+  scene.materials[2].f0 = Vec3d::Constant(0.5);
+  const auto report = evaluate_map(map, scene, EvalOptions{});
+  ASSERT_TRUE(report.is_ok());
+  EXPECT_GT(row(*report, "glossy plastic").dense.mean, 0.05);
+  EXPECT_FALSE(row(*report, "glossy plastic").has_phong);  // the truth is not of Phong form
+  EXPECT_LT(row(*report, "red cloth").dense.mean, 1e-5);
+}
+
+TEST(Eval, RejectsAMapOfAnotherSurfaceSize) {
+  const sim::Scene scene = sim::make_scene("bands").value();
+  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), 8, 8, 500.0, 500.0);
+  const auto report = evaluate_map(map, scene, EvalOptions{});
+  ASSERT_FALSE(report.is_ok());
+  EXPECT_EQ(report.error().code, ErrorCode::kInvalidArgument);
+}
+
+TEST(Eval, DenseDirectionsCoverTheUpperHemisphereUniformly) {
+  const auto dirs = hemisphere_directions(1000);
+  ASSERT_EQ(dirs.size(), 1000u);
+  Vec3d mean = Vec3d::Zero();
+  for (const Vec3d& d : dirs) {
+    EXPECT_NEAR(d.norm(), 1.0, 1e-12);
+    EXPECT_GT(d.z(), 0.0);
+    mean += d / 1000.0;
+  }
+  // Uniform in solid angle: E[z] = 1/2, E[x] = E[y] = 0.
+  EXPECT_NEAR(mean.z(), 0.5, 1e-3);
+  EXPECT_NEAR(mean.x(), 0.0, 5e-3);
+  EXPECT_NEAR(mean.y(), 0.0, 5e-3);
+}
+
+}  // namespace
+}  // namespace vdrig::pipeline
