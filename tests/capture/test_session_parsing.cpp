@@ -43,9 +43,9 @@ Result<Session> open_with_journal(const fs::path& dir, const std::string& journa
 
 TEST(SessionParsing, WrongTypedJournalLinesAreCorruptNotExceptions) {
   vdrig::test::TempDir tmp("session_parsing_journal");
-  json float_view = frame_line(), wide_view = frame_line(), float_bits = frame_line(), negative_sequence = frame_line();
-  float_view["view"] = 1e30;
-  wide_view["view"] = 4294967296ll;
+  // A view index that is a number but names no view (1e30, 2^32, -1) is ignored with a warning, not corrupt:
+  // test_session_journal_range covers those. Here: fields of the wrong type.
+  json float_bits = frame_line(), negative_sequence = frame_line();
   float_bits["bits"] = 8.5;
   negative_sequence["sequence"] = -1;
   const std::vector<std::string> bad_lines = {
@@ -54,9 +54,6 @@ TEST(SessionParsing, WrongTypedJournalLinesAreCorruptNotExceptions) {
       R"([{"type":"frame"}])",
       R"("view_complete")",
       R"({"type":"view_complete","view":0,"frames":"2"})",
-      R"({"type":"view_complete","view":1e30})",
-      float_view.dump(),
-      wide_view.dump(),
       float_bits.dump(),
       negative_sequence.dump(),
   };
