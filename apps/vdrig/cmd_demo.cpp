@@ -1,9 +1,13 @@
 // vdrig demo: the whole pipeline on the simulated rig, start to finish, writing images a person can look at.
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <set>
 
 #include "commands.hpp"
 #include "progress.hpp"
+#include "vdrig/capture/session_layout.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -22,19 +26,56 @@ struct DemoArgs {
   int holdout = 3;
 };
 
+constexpr const char* kDemoMark = "vdrig demo";  // manifest extra "created_by" of a session the demo made
+
+/// Makes room for the demo's session. Running the demo again replaces the session an earlier demo made, but never
+/// deletes what vdrig did not create: a folder that is not a demo session (its manifest says who made it), or one
+/// holding anything the demo does not write (a notes file, calib/, a map fitted by hand), is refused and left alone.
+Status clear_earlier_demo(const fs::path& session_dir) {
+  std::error_code ec;
+  if (!fs::exists(session_dir, ec) || fs::is_empty(session_dir, ec)) return Status::ok();
+  const auto refuse = [&](const std::string& why) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      session_dir.string() + " is not empty and " + why + ": pick another --out or remove it yourself");
+  };
+  const capture::SessionLayout layout(session_dir);
+  auto manifest = read_json_file(layout.manifest_file());
+  if (!manifest || !manifest->contains("extra") || !(*manifest)["extra"].is_object() ||
+      (*manifest)["extra"].value("created_by", "") != kDemoMark)
+    return refuse("is not a session `vdrig demo` made");
+  // What the demo writes, folder by folder (SessionLayout), and the file types in each.
+  const std::map<fs::path, std::string> demo_folders = {{layout.frames_dir(), ".png"},
+                                                        {layout.hdr_dir(), ".exr"},
+                                                        {layout.obsmap_dir(), ".vdobs"},
+                                                        {layout.maps_dir(), ".exr"},
+                                                        {layout.renders_dir(), ".png"}};
+  const std::set<fs::path> demo_files = {layout.manifest_file(), layout.journal_file(), layout.lock_file()};
+  for (const auto& entry : fs::directory_iterator(session_dir, ec)) {
+    if (demo_files.count(entry.path()) && entry.is_regular_file()) continue;
+    const auto folder = demo_folders.find(entry.path());
+    if (folder == demo_folders.end() || !entry.is_directory()) return refuse("holds " + entry.path().string());
+    for (const auto& file : fs::directory_iterator(entry.path(), ec))
+      if (!file.is_regular_file() || file.path().extension() != folder->second)
+        return refuse("holds " + file.path().string());
+  }
+  if (ec) return make_error(ErrorCode::kIo, "cannot list " + session_dir.string() + ": " + ec.message());
+  fs::remove_all(session_dir, ec);
+  if (ec)
+    return make_error(ErrorCode::kIo, "cannot remove the earlier demo " + session_dir.string() + ": " + ec.message());
+  return Status::ok();
+}
+
 Status run_demo(const DemoArgs& a) {
   auto logger = log::get("app");
   const fs::path out = fs::absolute(a.out);
   const fs::path session_dir = out / "session";
   std::error_code ec;
-  // Never delete what vdrig did not create: an earlier demo's session may hold a user's files by now.
-  if (fs::exists(session_dir, ec) && !fs::is_empty(session_dir, ec))
-    return make_error(ErrorCode::kInvalidArgument,
-                      session_dir.string() + " is not empty: pick another --out or remove it yourself");
+  VDRIG_TRY(clear_earlier_demo(session_dir));
 
   std::printf("1/5 capture: scene %s, scheme %s -> %s\n", a.scene.c_str(), a.scheme.c_str(), session_dir.c_str());
   pipeline::CaptureRequest req;
   req.out_dir = session_dir;
+  req.manifest_extra = {{"created_by", kDemoMark}};
   req.rig_config = sim::sim_rig_config({{"scene", a.scene}});
   req.scheme = a.scheme;
   req.exposures_s = {1.0, 0.25, 0.0625};

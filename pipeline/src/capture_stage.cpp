@@ -39,6 +39,7 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   for (size_t i = 0; i < req.exposures_s.size(); ++i) bracket += (i ? "," : "") + std::to_string(req.exposures_s[i]);
   manifest.bracket = bracket;
   manifest.exposures_s = req.exposures_s;
+  manifest.extra = req.manifest_extra;
   for (const auto& t : plan.reachable)
     manifest.views.push_back({static_cast<int>(manifest.views.size()), t.direction, t.pan_tilt});
   if (*truth) {

@@ -1,6 +1,6 @@
 // The CLI around a capture: `vdrig demo --out D` never deletes what it did not create (a non-empty D/session is
-// refused and left as it was), and progress written to something that is not a terminal is plain newline-ended log
-// lines at a modest rate, never '\r' redraws.
+// refused and left as it was, unless it is an earlier demo's session holding only what the demo writes), and progress
+// written to something that is not a terminal is plain newline-ended log lines at a modest rate, never '\r' redraws.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,6 +24,26 @@ TEST(CliDemo, RefusesANonEmptySessionFolderAndDeletesNothing) {
   EXPECT_TRUE(fs::exists(session / "calib" / "response.json")) << "the demo deleted a user's file";
   EXPECT_NE(r.err.find("is not empty"), std::string::npos) << "stderr: " << r.err;
   EXPECT_NE(r.err.find("--out"), std::string::npos) << "stderr: " << r.err;
+}
+
+TEST(CliDemo, RunsAgainOverItsOwnSessionButNeverOverAUsersFile) {
+  vdrig::test::TempDir root("demo_again");
+  const fs::path session = root.path() / "session";
+  const std::vector<std::string> demo = {testing::vdrig_cli(), "demo",  "--out", root.path().string(), "--scheme",
+                                         "latlong:2",          "--res", "4",     "--holdout",          "1"};
+  const auto first = testing::run_process(demo);
+  ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
+  const auto again = testing::run_process(demo);  // the README's `./vdrig.sh demo`, run a second time
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_TRUE(fs::exists(session / "maps" / "phong:1.exr"));
+  // A user's file beside the demo's own makes the demo refuse, and nothing is deleted.
+  testing::write_text(session / "maps" / "notes.txt", "my notes\n");
+  const auto refused = testing::run_process(demo);
+  EXPECT_NE(refused.exit_code, 0) << refused.out << refused.err;
+  EXPECT_NE(refused.err.find("notes.txt"), std::string::npos) << "stderr: " << refused.err;
+  EXPECT_TRUE(fs::exists(session / "maps" / "notes.txt"));
+  EXPECT_TRUE(fs::exists(session / "maps" / "phong:1.exr"));
+  EXPECT_TRUE(fs::exists(session / "manifest.json"));
 }
 
 TEST(CliProgress, NotATerminalGetsNewlineEndedLinesWithoutCarriageReturns) {

@@ -21,6 +21,7 @@ struct CaptureRequest {
   std::string scheme = "latlong:6";  // see capture/schemes.hpp
   std::vector<double> exposures_s = {0.25};
   std::function<void(int done, int total)> on_view;
+  nlohmann::json manifest_extra = nlohmann::json::object();  // the manifest's `extra` section, e.g. who made it
 };
 
 /// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
