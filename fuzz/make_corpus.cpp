@@ -7,8 +7,8 @@
 #include <opencv2/core.hpp>
 
 #include "vdrig/capture/session.hpp"
-#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/harmonic_model.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/probe/probe.hpp"

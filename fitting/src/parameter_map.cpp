@@ -115,8 +115,8 @@ Status check_model_values(const ParameterMap& map, const std::filesystem::path& 
     for (int s = 0; s < map.texels_s(); ++s) {
       const std::string problem = map.model().check_parameters(map.parameters(s, t));
       if (!problem.empty())
-        return make_error(ErrorCode::kCorrupt, path.string() + ": texel " + std::to_string(s) + "," +
-                                                   std::to_string(t) + ": " + problem);
+        return make_error(ErrorCode::kCorrupt,
+                          path.string() + ": texel " + std::to_string(s) + "," + std::to_string(t) + ": " + problem);
     }
   return Status::ok();
 }

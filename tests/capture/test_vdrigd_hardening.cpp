@@ -135,8 +135,7 @@ TEST(VdrigdStart, AnInvalidRigConfigExits2WithTheReason) {
                                        10.0);
   EXPECT_FALSE(r2.timed_out) << "vdrigd served with invalid backend settings";
   EXPECT_EQ(r2.exit_code, 2) << r2.err;
-  EXPECT_NE(r2.err.find("camera: \"width\" = -5 is outside"), std::string::npos)
-      << "stderr: " << r2.err;
+  EXPECT_NE(r2.err.find("camera: \"width\" = -5 is outside"), std::string::npos) << "stderr: " << r2.err;
   EXPECT_EQ(r2.err.find("listening"), std::string::npos) << "stderr: " << r2.err;
 }
 

@@ -21,7 +21,6 @@ namespace fs = std::filesystem;
 
 class MapChecks : public ::testing::Test {
  protected:
-
   /// A phong:1 map with every texel plausible, written to `name`, after `spoil` changed it.
   fs::path write_map(const std::string& name, const std::function<void(ParameterMap&)>& spoil) {
     auto model = parse_model("phong:1");

@@ -40,9 +40,7 @@ std::string slurp(const fs::path& p) {
 
 class CliHardening : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = vdrig::test::fresh_temp_dir("cli_hardening");
-  }
+  static void SetUpTestSuite() { dir_ = vdrig::test::fresh_temp_dir("cli_hardening"); }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
   /// Runs `program args` under a 60 s timeout, capturing stdout and stderr.
