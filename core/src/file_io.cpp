@@ -1,6 +1,7 @@
 #include "vdrig/core/file_io.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -56,8 +57,21 @@ fs::path temporary_sibling(const fs::path& path) {
   return path.parent_path() / name;
 }
 
+Status check_replaceable(const fs::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return Status::ok();  // absent, or a file to replace
+  return make_error(ErrorCode::kInvalidArgument,
+                    path.string() +
+                        " exists and is not a regular file (a device, FIFO, socket or folder): not "
+                        "replaced; write to a file instead");
+}
+
 Status commit_temporary(const fs::path& temporary, const fs::path& path) {
   std::error_code ignored;
+  if (auto s = check_replaceable(path); !s) {
+    fs::remove(temporary, ignored);
+    return s;
+  }
   if (auto s = fsync_path(temporary, false); !s) {
     fs::remove(temporary, ignored);
     return s;

@@ -395,6 +395,7 @@ struct ObsMapWriter::Impl {
     if (::fsync(out.get()) != 0) return io_error("syncing", tmp_path, errno);
     out.reset();
     spill.reset();
+    VDRIG_TRY(check_replaceable(path));
     if (::rename(tmp_path.c_str(), path.c_str()) != 0) return io_error("renaming into", path, errno);
     finished = true;
     // The rename is durable once the folder is synced; failing that is not worth failing the build for.

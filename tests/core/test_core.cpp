@@ -1,6 +1,7 @@
 // core: conventions, camera model, response curve, settings validation and file I/O.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -180,6 +181,26 @@ TEST(FileIo, FsyncPathSyncsFilesAndFoldersAndNamesWhatFailed) {
   EXPECT_EQ(missing.error().code, ErrorCode::kIo);
   EXPECT_NE(missing.error().message.find((d / "missing").string()), std::string::npos) << missing.describe();
   EXPECT_FALSE(fsync_path(d / "a.txt", true));  // not a folder
+}
+
+TEST(FileIo, AtomicWritesNeverReplaceADeviceFifoOrFolder) {
+  // Renaming over a special file replaces it: `--out /dev/null` run as root used to turn /dev/null into a file.
+  const test::TempDir d("core_replace_special");
+  const fs::path fifo = d / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const Status on_fifo = write_file_atomic(fifo, "x");
+  ASSERT_FALSE(on_fifo);
+  EXPECT_EQ(on_fifo.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(on_fifo.error().message.find("not a regular file"), std::string::npos) << on_fifo.describe();
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  fs::create_directories(d / "folder.png");
+  EXPECT_FALSE(write_png(d / "folder.png", cv::Mat(2, 2, CV_8UC3, cv::Scalar::all(7))));
+  EXPECT_TRUE(fs::is_directory(d / "folder.png"));
+  int files = 0;  // no temporary left behind
+  for (const auto& e : fs::directory_iterator(d.path())) files += e.is_regular_file();
+  EXPECT_EQ(files, 0);
+  EXPECT_TRUE(write_file_atomic(d / "plain.txt", "a"));
+  EXPECT_TRUE(write_file_atomic(d / "plain.txt", "b"));  // a regular file is replaced as before
 }
 
 TEST(FileIo, WriteAllWritesEverythingAndReportsAFullDevice) {

@@ -29,8 +29,12 @@ int write_all(int fd, const void* data, size_t size);
 /// A fresh hidden name beside `path` (".<name>.tmp<random>") for the atomic replace protocol.
 std::filesystem::path temporary_sibling(const std::filesystem::path& path);
 
+/// kInvalidArgument when `path` exists (following links) and is not a regular file: a device such as /dev/null, a
+/// FIFO, a socket or a folder. Renaming over it would replace it (as root, /dev/null itself), so outputs refuse it.
+Status check_replaceable(const std::filesystem::path& path);
+
 /// Completes the atomic replace: fsyncs the fully written `temporary`, renames it to `path` and fsyncs path's folder.
-/// On failure before the rename the temporary is removed and `path` is untouched.
+/// On failure before the rename (check_replaceable included) the temporary is removed and `path` is untouched.
 Status commit_temporary(const std::filesystem::path& temporary, const std::filesystem::path& path);
 
 /// Writes bytes to `path` through a temporary file, fsync, rename, fsync of the folder: a reader never sees a
