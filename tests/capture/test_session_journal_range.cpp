@@ -12,19 +12,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-Manifest three_views() {
-  Manifest m;
-  m.scheme = "test";
-  m.bracket = "fixed:0.01";
-  m.exposures_s = {0.01};
-  for (int i = 0; i < 3; ++i) {
-    PlannedView v;
-    v.index = i;
-    m.views.push_back(v);
-  }
-  return m;
-}
-
 void append_lines(const fs::path& journal, const std::vector<std::string>& lines) {
   std::ofstream out(journal, std::ios::app | std::ios::binary);
   for (const auto& l : lines) out << l << "\n";
@@ -39,7 +26,7 @@ std::string frame_line(const std::string& view) {
 TEST(SessionJournalRange, ViewsOutsideTheManifestAreIgnoredNotCounted) {
   vdrig::test::TempDir dir("journal_range");
   {
-    auto s = Session::create(dir.path(), three_views());
+    auto s = Session::create(dir.path(), testing::manifest_with_views(3));
     ASSERT_TRUE(s) << s.error().describe();
   }
   const fs::path journal = SessionLayout(dir.path()).journal_file();
@@ -70,7 +57,7 @@ TEST(SessionJournalRange, ViewsOutsideTheManifestAreIgnoredNotCounted) {
 TEST(SessionJournalRange, AManifestWithoutViewsIsRefusedAtLoad) {
   vdrig::test::TempDir dir("journal_noviews");
   {
-    auto s = Session::create(dir.path(), three_views());
+    auto s = Session::create(dir.path(), testing::manifest_with_views(3));
     ASSERT_TRUE(s) << s.error().describe();
   }
   const fs::path manifest = SessionLayout(dir.path()).manifest_file();
@@ -90,7 +77,7 @@ TEST(SessionJournalRange, AManifestWithoutViewsIsRefusedAtLoad) {
   EXPECT_FALSE(m);
   // Nor is one created.
   vdrig::test::TempDir other("journal_noviews_create");
-  Manifest empty = three_views();
+  Manifest empty = testing::manifest_with_views(3);
   empty.views.clear();
   EXPECT_FALSE(Session::create(other.path(), empty));
 }

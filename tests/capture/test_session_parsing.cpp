@@ -14,15 +14,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-Manifest two_views() {
-  Manifest m;
-  m.scheme = "test";
-  m.bracket = "fixed:0.01";
-  m.exposures_s = {0.01};
-  m.views = {{0, Vec3d::UnitZ(), {}}, {1, Vec3d::UnitX(), {}}};
-  return m;
-}
-
 void write(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
 /// A valid frame line of view 0 as the writer makes it.
@@ -36,7 +27,7 @@ json frame_line() {
 /// Opens a two-view session whose journal is `journal`.
 Result<Session> open_with_journal(const fs::path& dir, const std::string& journal) {
   fs::remove_all(dir);
-  if (auto s = Session::create(dir, two_views()); !s) return s.error();
+  if (auto s = Session::create(dir, testing::manifest_with_views(2)); !s) return s.error();
   write(dir / "journal.jsonl", journal);
   return Session::open(dir);
 }
@@ -75,7 +66,7 @@ TEST(SessionParsing, WrongTypedJournalLinesAreCorruptNotExceptions) {
 
 TEST(SessionParsing, ManifestIntegersMustBeIntegersThatFit) {
   vdrig::test::TempDir tmp("session_parsing_manifest");
-  const json valid = two_views().to_json();
+  const json valid = testing::manifest_with_views(2).to_json();
   json fractional_version = valid, wide_index = valid, float_index = valid;
   fractional_version["format_version"] = 1.5;      // was read as 1
   wide_index["views"][0]["index"] = 4294967296ll;  // was read as 0
@@ -97,7 +88,7 @@ void replay(const std::string& target, const std::string& file_name) {
   int replayed = 0;
   for (const auto& entry : fs::directory_iterator(folder)) {
     fs::remove_all(tmp.path());
-    ASSERT_TRUE(Session::create(tmp.path(), two_views()));
+    ASSERT_TRUE(Session::create(tmp.path(), testing::manifest_with_views(2)));
     fs::copy_file(entry.path(), tmp.path() / file_name, fs::copy_options::overwrite_existing);
     EXPECT_NO_THROW((void)Session::open(tmp.path())) << entry.path();
     ++replayed;

@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "vdrig/capture/session.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
@@ -30,6 +31,17 @@
 namespace vdrig::capture::testing {
 
 /// The simulator at 160x120 with one sample per pixel axis: fast enough for sessions of a hundred views.
+/// A manifest of `views` planned views (view i looks along +z) with a fixed one-exposure bracket: what the
+/// session-file tests need, without a rig.
+inline Manifest manifest_with_views(int views) {
+  Manifest m;
+  m.scheme = "test";
+  m.bracket = "fixed:0.01";
+  m.exposures_s = {0.01};
+  for (int i = 0; i < views; ++i) m.views.push_back({i, Vec3d::UnitZ(), {}});
+  return m;
+}
+
 inline nlohmann::json small_sim_config() {
   return sim::sim_rig_config(
       {{"scene", "patchwork"},
