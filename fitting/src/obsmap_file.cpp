@@ -175,6 +175,8 @@ std::string tile_too_large(int tile_size, int texels_s, int texels_t, int views)
 
 void pack(std::vector<char>& out, const float* rgb, const float* dir, const uint8_t* flags, size_t n) {
   out.resize(raw_bytes(n));
+  // A map of no views has empty tiles, and memcpy from a null pointer is undefined even for 0 bytes.
+  if (n == 0) return;
   std::memcpy(out.data(), rgb, 12 * n);
   std::memcpy(out.data() + 12 * n, dir, 12 * n);
   std::memcpy(out.data() + 24 * n, flags, n);
