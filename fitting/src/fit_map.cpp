@@ -137,7 +137,14 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
     };
     return for_each_texel(grid, load, options.threads, fit_texel, progress);
   };
-  return options.model->fit_map(context);
+  auto map = options.model->fit_map(context);
+  // Which views the held-out RMS (holdout.R/G/B) was measured on, for tools that show them (the texel inspector).
+  if (map && !held_out->empty()) {
+    std::string views;
+    for (const int v : held_out.value()) views += (views.empty() ? "" : ",") + std::to_string(v);
+    map->image().string_attributes["vdrig.held_out_views"] = views;
+  }
+  return map;
 }
 
 }  // namespace

@@ -58,6 +58,7 @@ class Interactive : public ::testing::Test {
     options_.captured_views = captured_views();
     options_.distance_mm = kDistance;
     options_.max_frames = 3;
+    options_.hud = false;  // frames compared pixel by pixel with the headless render
   }
 
   /// Runs the loop; skips the test without a display.

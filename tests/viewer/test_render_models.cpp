@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "cpu_reference.hpp"
 #include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
@@ -29,22 +30,6 @@ fitting::ParameterMap make_map(const std::string& spec) {
       fitting::set_harmonic_coefficients(map, s, t, c);
     }
   return map;
-}
-
-/// What the shader computes for one sub-sample at surface point p seen from camera centre C: the models of the four
-/// nearest texels, each toward the camera from its own centre, blended bilinearly.
-Vec3d expected_radiance(const fitting::ParameterMap& map, const Vec3d& p, const Vec3d& C) {
-  const double sx = (p.x() + 0.5 * kW) / kW * kS - 0.5, sy = (p.y() + 0.5 * kH) / kH * kT - 0.5;
-  const int s0 = static_cast<int>(std::floor(sx)), t0 = static_cast<int>(std::floor(sy));
-  const double fx = sx - s0, fy = sy - t0;
-  Vec3d sum = Vec3d::Zero();
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i) {
-      const int s = std::clamp(s0 + i, 0, kS - 1), t = std::clamp(t0 + j, 0, kT - 1);
-      const Vec3d v = (C - texel_centre_mm(s, t, kS, kT, kW, kH)).normalized();
-      sum += (i ? fx : 1 - fx) * (j ? fy : 1 - fy) * map.evaluate(s, t, v);
-    }
-  return sum;
 }
 
 void check_render(const std::string& spec) {
@@ -83,7 +68,7 @@ void check_render(const std::string& spec) {
       const cv::Vec3f bgr = img->at<cv::Vec3f>(py, px);
       // Pixels whose ray lands near the surface edge could fall either side in float: skip a 2 mm band.
       if (std::abs(p.x()) > 0.5 * kW - 2 || std::abs(p.y()) > 0.5 * kH - 2) continue;
-      const Vec3d want = expected_radiance(map, p, C);
+      const Vec3d want = test::expected_radiance(map, p, C);
       for (int c = 0; c < 3; ++c) {
         const double rel = std::abs(bgr[2 - c] - want[c]) / std::abs(want[c]);
         worst = std::max(worst, rel);
