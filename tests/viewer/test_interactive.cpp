@@ -13,6 +13,7 @@
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/interactive.hpp"
+#include "vdrig/viewer/texel_inspector.hpp"
 
 namespace vdrig::viewer {
 namespace {
@@ -210,7 +211,180 @@ TEST_F(Interactive, ScreenshotKeyAndQuit) {
   EXPECT_EQ(mean_abs_diff(shot.value(), r.last_frame), 0.0);
 }
 
+/// The map with every parameter channel scaled (a different, equally valid model of the same surface).
+fitting::ParameterMap scaled_map(const fitting::ParameterMap& map, double kd_factor) {
+  // A new map: copies of a ParameterMap share their channel planes (cv::Mat).
+  fitting::ParameterMap m(map.model_ptr(), map.texels_s(), map.texels_t(), map.width_mm(), map.height_mm());
+  for (int t = 0; t < m.texels_t(); ++t)
+    for (int s = 0; s < m.texels_s(); ++s) {
+      fitting::PhongParams p = fitting::phong_texel(map, s, t);
+      p.kd *= kd_factor;
+      fitting::set_phong_texel(m, s, t, p);
+    }
+  return m;
+}
+
+TEST_F(Interactive, PhotographAndDifferenceAtACapturedView) {
+  const int k = 8;
+  // The "photograph": what a brighter surface (Kd x 1.3) would give, so the difference is visible and known.
+  const fitting::ParameterMap brighter = scaled_map(map_, 1.3);
+  cv::Mat photo, render;
+  {
+    auto ctx = GlContext::create(kWidth, kHeight, false);
+    if (!ctx) GTEST_SKIP() << "no OpenGL display: " << ctx.error().message;
+    photo =
+        (*SurfaceRenderer::create(brighter))->render_radiance(*options_.camera, options_.captured_views[k], {}).value();
+    render =
+        (*SurfaceRenderer::create(map_))->render_radiance(*options_.camera, options_.captured_views[k], {}).value();
+  }
+  int photo_loads = 0;
+  ViewerOptions o = options_;
+  o.photo = [&](int view) -> Result<cv::Mat> {
+    EXPECT_EQ(view, k);
+    ++photo_loads;
+    return photo;
+  };
+  o.constrained = true;
+  o.initial_view = k;
+  o.gamma = 1.5;
+  o.script = {{0, InputEvent::press(ViewerKey::kCycleDisplay)}};
+  RUN_OR_SKIP(shown_photo, o);
+  EXPECT_EQ(shown_photo.display, ViewerDisplay::kPhotograph);
+  EXPECT_EQ(photo_loads, 1) << "loaded once, kept";
+  EXPECT_LT(mean_abs_diff(shown_photo.last_frame, tone_map(photo, 1.5)), 0.01);
+
+  o.script.push_back({1, InputEvent::press(ViewerKey::kCycleDisplay)});
+  RUN_OR_SKIP(shown_diff, o);
+  EXPECT_EQ(shown_diff.display, ViewerDisplay::kDifference);
+  cv::Mat want;
+  cv::absdiff(tone_map(render, 1.5), tone_map(photo, 1.5), want);
+  want.convertTo(want, CV_8UC3, o.difference_gain);
+  std::printf("difference display: mean level %.1f, mean |window - expected| %.3f\n", mean_level(want),
+              mean_abs_diff(shown_diff.last_frame, want));
+  EXPECT_GT(mean_level(want), 10.0);
+  EXPECT_LT(mean_abs_diff(shown_diff.last_frame, want), 0.5);
+
+  // Leaving the captured view shows the render again.
+  o.script.push_back({2, InputEvent::press(ViewerKey::kToggleMode)});
+  RUN_OR_SKIP(left, o);
+  EXPECT_EQ(left.display, ViewerDisplay::kRender);
+}
+
+TEST_F(Interactive, SeveralMapsAndTheInspectorOverlay) {
+  const std::vector<fitting::ParameterMap> maps = {map_, scaled_map(map_, 0.5)};
+  ViewerOptions o = options_;
+  o.constrained = true;
+  o.initial_view = 3;
+  o.script = {{1, InputEvent::press(ViewerKey::kNextModel)}};
+  auto cycled = run_viewer(maps, o);
+  if (!cycled && cycled.error().code == ErrorCode::kUnsupported) GTEST_SKIP() << cycled.error().message;
+  ASSERT_TRUE(cycled) << cycled.error().describe();
+  EXPECT_EQ(cycled->model, 1);
+  const cv::Mat want = [&] {
+    const fitting::ParameterMap first = map_;
+    map_ = maps[1];  // what headless() renders
+    const cv::Mat m = headless(cycled->frame_camera, o.captured_views[3], o.gamma);
+    map_ = first;
+    return m;
+  }();
+  EXPECT_LT(mean_abs_diff(cycled->last_frame, want), 1.0) << "the second map is shown";
+
+  // A click on the frame's centre opens the inspector on the texel there, drawn over the lower right quarter.
+  int loads = 0;
+  o.observations = [&](int, int) -> Result<fitting::TexelObservations> {
+    ++loads;
+    return fitting::TexelObservations{};
+  };
+  o.script = {{1, InputEvent::pick(kWidth / 2.0, kHeight / 2.0)}};
+  auto picked = run_viewer(maps, o);
+  ASSERT_TRUE(picked) << picked.error().describe();
+  const auto texel = pick_texel(picked->frame_camera, o.captured_views[3], map_, Vec2d(kWidth / 2.0, kHeight / 2.0));
+  ASSERT_TRUE(texel);
+  EXPECT_EQ(picked->inspected, texel);
+  EXPECT_EQ(loads, 1);
+  const cv::Rect corner(kWidth / 2 + 2, kHeight * 3 / 4, kWidth / 2 - 4, kHeight / 4 - 2);
+  const cv::Mat plain = headless(picked->frame_camera, o.captured_views[3], o.gamma);
+  EXPECT_GT(mean_abs_diff(picked->last_frame(corner), plain(corner)), 20.0) << "the plot covers the corner";
+  EXPECT_LT(mean_abs_diff(picked->last_frame(cv::Rect(0, 0, kWidth / 2, kHeight / 2)),
+                          plain(cv::Rect(0, 0, kWidth / 2, kHeight / 2))),
+            1.0);
+
+  // Maps of different sizes are refused with the reason.
+  fitting::ParameterMap other(fitting::parse_model("phong:1").value(), kS + 1, kT, kW, kH);
+  const std::vector<fitting::ParameterMap> mixed = {map_, other};
+  auto refused = run_viewer(mixed, o);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(refused.error().message.find("17x12 texels, not 16x12"), std::string::npos) << refused.error().message;
+}
+
 // The controller alone: no window needed.
+TEST(ViewerController, ModelsDisplaysInspectorAndHud) {
+  ViewerOptions o;
+  o.captured_views = captured_views();
+  o.distance_mm = kDistance;
+  ViewerController no_photos(o, 500.0, {"phong:1", "sh-ls:4"});
+  no_photos.handle(InputEvent::press(ViewerKey::kToggleMode));
+  no_photos.handle(InputEvent::press(ViewerKey::kCycleDisplay));
+  EXPECT_EQ(no_photos.display(), ViewerDisplay::kRender) << "no photographs: the render only";
+
+  o.photo = [](int) -> Result<cv::Mat> { return cv::Mat(); };
+  ViewerController c(o, 500.0, {"phong:1", "sh-ls:4", "hsh:5"});
+  EXPECT_EQ(c.model(), 0);
+  EXPECT_NE(c.title().find("phong:1 (1/3)"), std::string::npos) << c.title();
+  c.handle(InputEvent::press(ViewerKey::kNextModel));
+  c.handle(InputEvent::press(ViewerKey::kNextModel));
+  EXPECT_EQ(c.model(), 2);
+  c.handle(InputEvent::press(ViewerKey::kNextModel));
+  EXPECT_EQ(c.model(), 0) << "wraps";
+
+  c.handle(InputEvent::press(ViewerKey::kCycleDisplay));  // free mode: nothing to compare with
+  EXPECT_EQ(c.display(), ViewerDisplay::kRender);
+  c.handle(InputEvent::press(ViewerKey::kNext));  // a captured view
+  for (const ViewerDisplay want :
+       {ViewerDisplay::kPhotograph, ViewerDisplay::kDifference, ViewerDisplay::kRender, ViewerDisplay::kPhotograph}) {
+    c.handle(InputEvent::press(ViewerKey::kCycleDisplay));
+    EXPECT_EQ(c.display(), want);
+  }
+  c.handle(InputEvent::press(ViewerKey::kNext));
+  EXPECT_EQ(c.display(), ViewerDisplay::kPhotograph) << "kept from view to view";
+  c.handle(InputEvent::press(ViewerKey::kToggleMode));
+  EXPECT_EQ(c.display(), ViewerDisplay::kRender) << "free mode shows the render";
+  const std::string hud = c.hud_line(12.34);
+  EXPECT_NE(hud.find("phong:1 (1/3)"), std::string::npos) << hud;
+  EXPECT_NE(hud.find("azimuth"), std::string::npos) << hud;
+  EXPECT_NE(hud.find("gamma 1"), std::string::npos) << hud;
+  EXPECT_NE(hud.find("render - 12.3 ms"), std::string::npos) << hud;
+  EXPECT_TRUE(c.hud());
+  c.handle(InputEvent::press(ViewerKey::kToggleHud));
+  EXPECT_FALSE(c.hud());
+
+  EXPECT_FALSE(c.take_pick_request());
+  c.handle(InputEvent::pick(10.5, 20));
+  EXPECT_EQ(c.take_pick_request().value(), Vec2d(10.5, 20));
+  EXPECT_FALSE(c.take_pick_request());
+  c.inspect(std::make_pair(3, 4));
+  c.handle(InputEvent::press(ViewerKey::kHideInspector));
+  EXPECT_FALSE(c.inspected());
+}
+
+TEST(ViewerController, MapsOfOneSessionAndSize) {
+  const fitting::ParameterMap a = make_map();
+  fitting::ParameterMap b = a;
+  const std::vector<std::string> names = {"a.exr", "b.exr"};
+  EXPECT_TRUE(check_maps_compatible(std::vector{a, b}, names));
+  b.set_source_session("/data/s2");
+  EXPECT_TRUE(check_maps_compatible(std::vector{a, b}, names)) << "one map without a recorded session";
+  fitting::ParameterMap c = a;
+  c.set_source_session("/data/s1");
+  const Status other = check_maps_compatible(std::vector{c, b}, names);
+  ASSERT_FALSE(other);
+  EXPECT_NE(other.error().message.find("b.exr comes from session /data/s2, not /data/s1"), std::string::npos)
+      << other.error().message;
+  fitting::ParameterMap wide(fitting::parse_model("phong:1").value(), kS, kT, kW + 10, kH);
+  EXPECT_FALSE(check_maps_compatible(std::vector{a, wide}, names));
+}
+
 TEST(ViewerController, KeysDriveModeStepsGammaAndTitle) {
   ViewerOptions o;
   o.captured_views = captured_views();
