@@ -5,6 +5,7 @@
 #include <GL/glext.h>
 #include <GLFW/glfw3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
@@ -22,7 +23,9 @@ void main() {
 }
 )";
 
-// The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head and tail (model_glsl()).
+// The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head and tail (model_glsl()), after
+// `vec4 g_params[L]`: the texel's parameter layers, fetched once per texel by load_params (the model reads its
+// parameters from there; fetching per parameter made texture fetches most of a fragment's cost on llvmpipe).
 const char* kFragmentHead = R"(#version 330 core
 out vec4 out_colour;
 uniform sampler2DArray u_params;   // parameter map channels, 4 per layer
@@ -38,7 +41,6 @@ uniform int u_mode;                // 0 = linear radiance, 1 = tone mapped sRGB
 uniform float u_gamma;
 uniform bool u_flip_y;             // default framebuffer: row 0 at the bottom
 
-float channel(int c, ivec2 t) { return texelFetch(u_params, ivec3(t, c / 4), 0)[c % 4]; }
 
 vec2 distort(vec2 u) {
   float r2 = dot(u, u);
@@ -47,8 +49,14 @@ vec2 distort(vec2 u) {
               u.y * radial + u_dist[2] * (r2 + 2.0 * u.y * u.y) + 2.0 * u_dist[3] * u.x * u.y);
 }
 vec2 undistort(vec2 d) {
+  // Fixed-point iteration, stopped once converged (at once without distortion): most of a Phong fragment's cost
+  // otherwise.
   vec2 u = d;
-  for (int i = 0; i < 40; ++i) u -= distort(u) - d;
+  for (int i = 0; i < 40; ++i) {
+    vec2 step = distort(u) - d;
+    u -= step;
+    if (dot(step, step) < 1e-16) break;
+  }
   return u;
 }
 )";
@@ -68,6 +76,7 @@ vec3 shade_point(vec3 p) {
                     (float(t.y) + 0.5) / float(u_texels.y) * u_size_mm.y - 0.5 * u_size_mm.y);
       vec3 v = normalize(u_centre - vec3(c, 0.0));
       float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+      load_params(t);
       sum += w * model(t, v);
     }
   return sum;
@@ -101,10 +110,17 @@ void main() {
 }
 )";
 
-/// GLSL of `vec3 model(ivec2 t, vec3 v)` for the map's model (ReflectanceModel::glsl), reading parameter i from
-/// the map channel that holds it.
+/// GLSL of the parameter buffer, its loader and `vec3 model(ivec2 t, vec3 v)` for the map's model
+/// (ReflectanceModel::glsl), reading parameter i from the component of g_params that holds its map channel.
 std::string model_glsl(const fitting::ParameterMap& map) {
-  return map.model().glsl([&map](int i) { return "channel(" + std::to_string(map.parameter_channel(i)) + ", t)"; });
+  int layers = 1;
+  for (int i = 0; i < map.model().parameter_count(); ++i) layers = std::max(layers, map.parameter_channel(i) / 4 + 1);
+  const std::string n = std::to_string(layers);
+  return "vec4 g_params[" + n + "];\nvoid load_params(ivec2 t) {\n  for (int l = 0; l < " + n +
+         "; ++l) g_params[l] = texelFetch(u_params, ivec3(t, l), 0);\n}\n" + map.model().glsl([&map](int i) {
+           const int c = map.parameter_channel(i);
+           return std::string("g_params[") + std::to_string(c / 4) + "]." + "xyzw"[c % 4];
+         });
 }
 
 GLuint compile(GLenum type, const std::string& src, std::string* log) {
