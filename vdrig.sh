@@ -2,8 +2,9 @@
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
 #   ./vdrig.sh test   set up, build, and pass the tests (Release, then under ASan + UBSan, then the fuzz targets)
-# Other verbs: build, bench, results (regenerates docs/results.md), format-check, fuzz (each fuzz target for
-# VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go to the demo (see: build/apps/vdrig demo --help).
+# Other verbs: build, bench, results (regenerates docs/results.md), screenshots (regenerates docs/img/viewer_*.png),
+# format-check, fuzz (each fuzz target for VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go
+# to the demo (see: build/apps/vdrig demo --help).
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -103,12 +104,17 @@ case "$verb" in
     configure_and_build release
     build/release/bench/bench_results_table docs/results.md
     ;;
+  screenshots)
+    setup
+    configure_and_build release
+    bash scripts/screenshots.sh build/release/apps/vdrig docs/img
+    ;;
   format-check)
     setup
     git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
     ;;
   *)
-    sed -n '2,6p' "$0"
+    sed -n '2,7p' "$0"
     exit 2
     ;;
 esac

@@ -78,8 +78,8 @@ Status run_inspect(const InspectArgs& a) {
     return make_error(ErrorCode::kInvalidArgument, "--texel " + a.texel + " is outside the map's " +
                                                        std::to_string(map->texels_s()) + "x" +
                                                        std::to_string(map->texels_t()) + " texels");
-  if (a.width < 320 || a.height < 240 || a.width > 8192 || a.height > 8192)
-    return make_error(ErrorCode::kInvalidArgument, "--plot-width x --plot-height must be within 320x240 .. 8192x8192");
+  if (a.width < 480 || a.height < 270 || a.width > 8192 || a.height > 8192)
+    return make_error(ErrorCode::kInvalidArgument, "--plot-width x --plot-height must be within 480x270 .. 8192x8192");
   auto data = open_session_data(a.session);
   if (!data) return data.error();
   auto obs = data->observations(map.value(), s, t);

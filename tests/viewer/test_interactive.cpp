@@ -289,7 +289,7 @@ TEST_F(Interactive, SeveralMapsAndTheInspectorOverlay) {
   }();
   EXPECT_LT(mean_abs_diff(cycled->last_frame, want), 1.0) << "the second map is shown";
 
-  // A click on the frame's centre opens the inspector on the texel there, drawn over the lower right quarter.
+  // A click on the frame's centre opens the inspector on the texel there, drawn over the lower right.
   int loads = 0;
   o.observations = [&](int, int) -> Result<fitting::TexelObservations> {
     ++loads;
@@ -305,9 +305,8 @@ TEST_F(Interactive, SeveralMapsAndTheInspectorOverlay) {
   const cv::Rect corner(kWidth / 2 + 2, kHeight * 3 / 4, kWidth / 2 - 4, kHeight / 4 - 2);
   const cv::Mat plain = headless(picked->frame_camera, o.captured_views[3], o.gamma);
   EXPECT_GT(mean_abs_diff(picked->last_frame(corner), plain(corner)), 20.0) << "the plot covers the corner";
-  EXPECT_LT(mean_abs_diff(picked->last_frame(cv::Rect(0, 0, kWidth / 2, kHeight / 2)),
-                          plain(cv::Rect(0, 0, kWidth / 2, kHeight / 2))),
-            1.0);
+  const cv::Rect top_left(0, 0, kWidth / 4, kHeight / 4);  // outside the overlay (3/4 of the window at most)
+  EXPECT_LT(mean_abs_diff(picked->last_frame(top_left), plain(top_left)), 1.0);
 
   // Maps of different sizes are refused with the reason.
   fitting::ParameterMap other(fitting::parse_model("phong:1").value(), kS + 1, kT, kW, kH);

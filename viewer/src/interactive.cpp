@@ -586,15 +586,17 @@ Result<ViewerResult> run_viewer(std::span<const fitting::ParameterMap> maps, con
           else
             logger->warn("texel {},{}: no observations ({})", s, t, loaded.error().describe());
         }
+        // Drawn at the size `vdrig inspect` draws it (its layout is laid out for it), shrunk below to fit.
         plot = plot_inspection(inspect_texel(map, s, t, obs, held_out_views(map)));
         plotted_texel = *controller.inspected();
         plotted_model = controller.model();
       }
-      // Lower right, at most half the window wide and tall, aspect kept.
-      const double f = std::min(0.5 * fb_w / plot.cols, 0.5 * fb_h / plot.rows);
+      // Lower right, at most three quarters of the window wide and tall.
+      const double f =
+          std::min({1.0, 0.75 * fb_w / static_cast<double>(plot.cols), 0.75 * fb_h / static_cast<double>(plot.rows)});
       const cv::Size size(std::max(1, static_cast<int>(plot.cols * f)), std::max(1, static_cast<int>(plot.rows * f)));
-      cv::Mat scaled;
-      cv::resize(plot, scaled, size, 0, 0, cv::INTER_AREA);
+      cv::Mat scaled = plot;
+      if (size != plot.size()) cv::resize(plot, scaled, size, 0, 0, cv::INTER_AREA);
       quad.draw(scaled, cv::Rect(fb_w - size.width, fb_h - size.height, size.width, size.height), fb_h);
     }
     if (controller.hud()) {

@@ -118,8 +118,9 @@ TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, co
 }
 
 cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
+  VDRIG_CHECK(width >= 480 && height >= 270, "plot_inspection: the plot needs at least 480 x 270 pixels");
   cv::Mat img(height, width, CV_8UC3, cv::Scalar(250, 250, 250));
-  const int text_h = std::max(90, height / 4);
+  const int text_h = std::max(110, height / 4);
   const int plot_h = height - text_h;
   const int curve_w = width * 3 / 5;
   const cv::Scalar channel_colour[3] = {{40, 40, 220}, {40, 170, 40}, {220, 60, 40}};  // R, G, B in BGR
@@ -147,8 +148,7 @@ cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
     cv::line(img, p, p - cv::Point(4, 0), cv::Scalar(80, 80, 80));
     text(img, format_value(y_max / 1.1 * k / 4), p + cv::Point(-52, 4), 0.35);
   }
-  text(img, "radiance along the great circle through the normal and the peak (deg from normal)",
-       cv::Point(area.x, area.y - 10), 0.42);
+  text(img, "radiance along the great circle through n and the peak (deg)", cv::Point(area.x, area.y - 10), 0.42);
   for (int c = 0; c < 3; ++c)
     for (size_t i = 1; i < r.curve.size(); ++i)
       cv::line(img, to_px(r.curve_deg[i - 1], r.curve[i - 1][c]), to_px(r.curve_deg[i], r.curve[i][c]),
@@ -191,14 +191,18 @@ cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
 
   // --- Text: texel, model, quality, parameters ---
   int y = plot_h + 16;
-  std::string line = "texel " + std::to_string(r.s) + "," + std::to_string(r.t) + "  " + r.model + "  n " +
-                     std::to_string(r.samples) + " (" + std::to_string(r.observations.size()) +
-                     " observations)  fit RMS " + format_rgb(r.fit_rms) + "  held-out RMS " +
-                     (r.holdout_rms ? format_rgb(*r.holdout_rms) : std::string("-"));
-  text(img, line, cv::Point(10, y), 0.45, cv::Scalar(0, 0, 0));
+  text(img,
+       "texel " + std::to_string(r.s) + "," + std::to_string(r.t) + "   " + r.model + "   n " +
+           std::to_string(r.samples) + " fitted of " + std::to_string(r.observations.size()) + " observations",
+       cv::Point(10, y), 0.45, cv::Scalar(0, 0, 0));
+  y += 18;
+  text(img,
+       "RMS R G B: fit " + format_rgb(r.fit_rms) + "   held out " +
+           (r.holdout_rms ? format_rgb(*r.holdout_rms) : std::string("- (no views held out)")),
+       cv::Point(10, y), 0.45, cv::Scalar(0, 0, 0));
+  std::string line;
   // Parameters, as many as fit on the remaining lines.
   const int chars_per_line = std::max(20, width / 8);
-  line.clear();
   size_t shown = 0;
   for (const auto& [name, value] : r.parameters) {
     const std::string item = name + " " + format_value(value) + "   ";

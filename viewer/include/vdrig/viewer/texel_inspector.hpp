@@ -69,7 +69,7 @@ std::vector<int> held_out_views(const fitting::ParameterMap& map);
 TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, const fitting::TexelObservations& obs,
                               const std::vector<int>& held_out = {}, const InspectOptions& options = {});
 
-/// The plot (CV_8UC3 BGR, width x height): curve plot left, hemisphere right, text below.
+/// The plot (CV_8UC3 BGR, width x height, at least 480 x 270): curve plot left, hemisphere right, text below.
 cv::Mat plot_inspection(const TexelInspection& inspection, int width = 960, int height = 540);
 
 /// The texel whose footprint the ray through `pixel` of `camera` at `pose` meets on the surface plane; nullopt when
