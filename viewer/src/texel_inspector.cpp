@@ -201,24 +201,27 @@ cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
            (r.holdout_rms ? format_rgb(*r.holdout_rms) : std::string("- (no views held out)")),
        cv::Point(10, y), 0.45, cv::Scalar(0, 0, 0));
   std::string line;
-  // Parameters, as many as fit on the remaining lines.
+  // Parameters in lines of at most chars_per_line characters; as many lines as fit, the last one saying how many
+  // parameters did not.
   const int chars_per_line = std::max(20, width / 8);
-  size_t shown = 0;
-  for (const auto& [name, value] : r.parameters) {
-    const std::string item = name + " " + format_value(value) + "   ";
-    if (static_cast<int>(line.size() + item.size()) > chars_per_line) {
-      y += 18;
-      if (y > height - 8) break;
-      text(img, line, cv::Point(10, y), 0.4);
-      line.clear();
+  std::vector<std::string> lines;
+  std::vector<size_t> shown_after;  // parameters shown up to and including each line
+  for (size_t i = 0; i < r.parameters.size(); ++i) {
+    const std::string item = r.parameters[i].first + " " + format_value(r.parameters[i].second) + "   ";
+    if (lines.empty() || static_cast<int>(lines.back().size() + item.size()) > chars_per_line) {
+      lines.emplace_back();
+      shown_after.push_back(0);
     }
-    line += item;
-    ++shown;
+    lines.back() += item;
+    shown_after.back() = i + 1;
   }
-  if (!line.empty() && y + 18 <= height - 8) {
+  const size_t fit = static_cast<size_t>(std::max(0, (height - 8 - y) / 18));
+  for (size_t k = 0; k < std::min(fit, lines.size()); ++k) {
+    std::string l = lines[k];
+    if (k + 1 == fit && k + 1 < lines.size())
+      l += "... (" + std::to_string(r.parameters.size() - shown_after[k]) + " more)";
     y += 18;
-    if (shown < r.parameters.size()) line += "... (" + std::to_string(r.parameters.size() - shown) + " more)";
-    text(img, line, cv::Point(10, y), 0.4);
+    text(img, l, cv::Point(10, y), 0.4);
   }
   return img;
 }

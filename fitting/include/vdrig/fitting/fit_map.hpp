@@ -31,7 +31,8 @@ struct MapFitOptions {
   ShFitOptions sh;        // SH: bands and method taken from `model`; window/smoothing used as given
   HshFitOptions hsh;      // HSH: bands taken from `model`; method/window/smoothing used as given
   /// Observation-map view indices left out of the fit (any order); their observations give holdout.R/G/B, the RMS
-  /// residual of the fitted model on them (0 where a texel has no held-out observation).
+  /// residual of the fitted model on them (0 where a texel has no held-out observation). The map records them
+  /// (vdrig.held_out_views, sorted).
   std::vector<int> held_out;
   /// Phong only (other models reject it): after the per-texel fits, estimate the lights from all texels' lobes
   /// (estimate_point_lights, at most K lights for phong:K, 4 for phong:auto) and refit each texel with its lobes
