@@ -2,7 +2,7 @@
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
 #   ./vdrig.sh test   set up, build, and pass the tests (Release, then under ASan + UBSan, then the fuzz targets)
-# Other verbs: build, bench, results (regenerates docs/results.md), screenshots (regenerates docs/img/viewer_*.png),
+# Other verbs: build, bench, results (regenerates docs/results.md), screenshots (regenerates docs/img/*.png),
 # format-check, fuzz (each fuzz target for VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go
 # to the demo (see: build/apps/vdrig demo --help).
 set -euo pipefail

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the viewer screenshots of docs/viewer.md and the README (docs/img/viewer_*.png) from a fresh simulated
+# Regenerates the viewer screenshots of docs/viewer.md and the README (docs/img/*.png) from a fresh simulated
 # session: `vdrig demo` (capture, HDR, Phong-1 fit with 3 held-out views), an SH-36 fit of the same session, then
 # scripted `vdrig view` frames (a model, the difference at a held-out view, the texel inspector) and a
 # `vdrig inspect` plot. Usage: scripts/screenshots.sh [VDRIG_BINARY] [OUT_DIR]   (./vdrig.sh screenshots)
