@@ -4,6 +4,7 @@
 // stepped through, shown as photographs or differences (D), and clicked texels inspected with their observations;
 // without, a 1024x768 pinhole 2500 mm above the surface.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,6 +43,16 @@ Status run_view(const ViewArgs& a) {
     auto opened = open_session_data(a.session);
     if (!opened) return opened.error();
     data = std::make_shared<SessionData>(std::move(opened.value()));
+    // A map fitted from another session would be compared with the wrong photographs: say so (the paths may
+    // legitimately differ when a session was moved, so it is a warning).
+    std::error_code ec;
+    const auto session_path = std::filesystem::weakly_canonical(a.session, ec);
+    for (size_t i = 0; i < maps.size(); ++i) {
+      const auto& attributes = maps[i].image().string_attributes;
+      const auto it = attributes.find("vdrig.source_session");
+      if (it != attributes.end() && std::filesystem::weakly_canonical(it->second, ec) != session_path)
+        log::get("app")->warn("{} was fitted from {}, not from --session {}", a.maps[i], it->second, a.session);
+    }
     o.camera = data->geometry.camera;
     o.captured_views = data->geometry.poses;
     o.photo = [data](int view) { return data->photo(view); };
