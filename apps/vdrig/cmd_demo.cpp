@@ -95,8 +95,7 @@ Status run_demo(const DemoArgs& a) {
   // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
   // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
   // ones out and measures itself on them (holdout.R/G/B).
-  std::vector<int> held_out;
-  for (int k = 1; k <= a.holdout; ++k) held_out.push_back(n_views * k / (a.holdout + 1));
+  const std::vector<int> held_out = pipeline::spread_holdout_views(n_views, a.holdout);
 
   std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", a.resolution, a.resolution, n_views,
               held_out.size());

@@ -90,7 +90,7 @@ Status run_fit(const FitArgs& a) {
   if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && !options.model->linear_in_shared_directions())
     return make_error(ErrorCode::kInvalidArgument,
                       "--smoothing and --window do not apply to " + options.model->family() + " models");
-  for (int k = 1; k <= a.holdout; ++k) options.held_out.push_back(n_views * k / (a.holdout + 1));
+  options.held_out = pipeline::spread_holdout_views(n_views, a.holdout);
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever --res is.

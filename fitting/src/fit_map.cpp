@@ -137,7 +137,14 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
     };
     return for_each_texel(grid, load, options.threads, fit_texel, progress);
   };
-  return options.model->fit_map(context);
+  auto map = options.model->fit_map(context);
+  if (map && !held_out->empty()) {
+    // Recorded so that later tools (vdrig compare --holdout) find the views the fit never saw.
+    std::string views;
+    for (int v : held_out.value()) views += (views.empty() ? "" : ",") + std::to_string(v);
+    map->image().string_attributes["vdrig.held_out_views"] = views;
+  }
+  return map;
 }
 
 }  // namespace
