@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <ctime>
 #include <map>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -97,27 +98,38 @@ std::string viridis(double t) {
   return buf;
 }
 
-/// A horizontal colour bar (viridis) from lo to hi with a label.
-std::string colour_bar(double lo, double hi, const std::string& label) {
+/// A horizontal colour bar (viridis) from lo to hi, its label above; `hi_clipped`: values above hi are shown as hi.
+std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped = false) {
   static int id = 0;
   const std::string gid = "cb" + std::to_string(++id);
   std::string svg =
-      "<svg class=\"colourbar\" width=\"260\" height=\"34\" viewBox=\"0 0 260 34\"><defs><linearGradient id=\"" + gid +
-      "\">";
+      "<svg class=\"colourbar\" width=\"260\" height=\"42\" viewBox=\"0 0 260 42\"><defs><linearGradient "
+      "id=\"" +
+      gid + "\">";
   for (int k = 0; k <= 8; ++k)
     svg += "<stop offset=\"" + format("%.3f", k / 8.0) + "\" stop-color=\"" + viridis(k / 8.0) + "\"/>";
-  svg += "</linearGradient></defs><rect x=\"5\" y=\"2\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
-  svg += "<text x=\"5\" y=\"28\" font-size=\"11\">" + escape(format("%.4g", lo)) + "</text>";
-  svg += "<text x=\"130\" y=\"28\" font-size=\"11\" text-anchor=\"middle\">" + escape(label) + "</text>";
-  svg += "<text x=\"255\" y=\"28\" font-size=\"11\" text-anchor=\"end\">" + escape(format("%.4g", hi)) + "</text>";
+  svg += "</linearGradient></defs><text x=\"5\" y=\"11\" font-size=\"11\">" + escape(label) + "</text>";
+  svg += "<rect x=\"5\" y=\"15\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
+  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape(format("%.4g", lo)) + "</text>";
+  svg += "<text x=\"255\" y=\"40\" font-size=\"11\" text-anchor=\"end\">" + std::string(hi_clipped ? "&#8805; " : "") +
+         escape(format("%.4g", hi)) + "</text>";
   return svg + "</svg>";
 }
 
 /// A false-colour image of a float plane (NaN shown grey), scaled up (nearest) to at least min_width, with its bar.
+/// The scale runs from the minimum to the 99th percentile, so that a few outliers do not darken the whole map.
 std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width) {
-  double lo = 0, hi = 0;
   cv::Mat finite = plane == plane;  // not NaN
-  cv::minMaxLoc(plane, &lo, &hi, nullptr, nullptr, finite);
+  std::vector<float> values;
+  for (int y = 0; y < plane.rows; ++y)
+    for (int x = 0; x < plane.cols; ++x)
+      if (finite.at<uint8_t>(y, x)) values.push_back(plane.at<float>(y, x));
+  double lo = 0, hi = 0, max = 0;
+  if (!values.empty()) {
+    std::sort(values.begin(), values.end());
+    lo = values.front(), max = values.back();
+    hi = values[std::min(values.size() - 1, static_cast<size_t>(0.99 * double(values.size())))];
+  }
   cv::Mat scaled;
   plane.convertTo(scaled, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0.0);
   cv::Mat colours;
@@ -125,7 +137,8 @@ std::string false_colour(const cv::Mat& plane, const std::string& label, int min
   colours.setTo(cv::Scalar(128, 128, 128), ~finite);
   const int factor = std::max(1, (min_width + plane.cols - 1) / plane.cols);
   cv::resize(colours, colours, {}, factor, factor, cv::INTER_NEAREST);
-  return "<figure>" + img_tag(colours, label) + "<figcaption>" + colour_bar(lo, hi, label) + "</figcaption></figure>";
+  return "<figure>" + img_tag(colours, label) + "<figcaption>" + colour_bar(lo, hi, label, max > hi) +
+         "</figcaption></figure>";
 }
 
 // ---- Polar plots of the hemisphere ----
@@ -245,9 +258,24 @@ std::string views_section(const ReportData& d) {
     if (t0 == 0 || (f.timestamp_ns > 0 && f.timestamp_ns < t0)) t0 = f.timestamp_ns;
   std::string rows;
   int merged = 0, clipped_views = 0;
-  for (const capture::PlannedView& v : s.manifest().views) {
+  // The clipped fraction of every merged view, read in parallel (the slowest part of the report): -1 not merged, -2
+  // unreadable.
+  const auto& planned = s.manifest().views;
+  std::vector<double> clipped_fraction(planned.size(), -1.0);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(planned.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const int v = planned[i].index;
+      if (!s.view_complete(v) || !fs::exists(s.layout().hdr_file(v))) continue;
+      auto hdr = calib::read_hdr_exr(s.layout().hdr_file(v));
+      clipped_fraction[i] = hdr && !hdr->mask.empty()
+                                ? cv::countNonZero(hdr->mask & calib::kHdrSaturated) / double(hdr->mask.total())
+                                : -2.0;
+    }
+  });
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const capture::PlannedView& v = planned[i];
     const auto frames = s.frames_of_view(v.index);
-    std::string exposures, saturated;
+    std::string exposures;
     int n_saturated = 0;
     int64_t first = 0, last = 0;
     for (const auto& f : frames) {
@@ -257,16 +285,12 @@ std::string views_section(const ReportData& d) {
       last = std::max(last, f.timestamp_ns);
     }
     std::string clipped = "&#8211;";
-    if (s.view_complete(v.index) && fs::exists(s.layout().hdr_file(v.index))) {
-      auto hdr = calib::read_hdr_exr(s.layout().hdr_file(v.index));
-      if (hdr && !hdr->mask.empty()) {
-        ++merged;
-        const double fraction = cv::countNonZero(hdr->mask & calib::kHdrSaturated) / double(hdr->mask.total());
-        clipped_views += fraction > 0;
-        clipped = format("%.3f", 100.0 * fraction);
-      } else {
-        clipped = "unreadable";
-      }
+    if (clipped_fraction[i] >= 0) {
+      ++merged;
+      clipped_views += clipped_fraction[i] > 0;
+      clipped = format("%.3f", 100.0 * clipped_fraction[i]);
+    } else if (clipped_fraction[i] == -2.0) {
+      clipped = "unreadable";
     }
     rows += "<tr" + std::string(s.view_complete(v.index) ? "" : " class=\"incomplete\"") + "><td>" +
             std::to_string(v.index) + "</td><td>" +
@@ -581,8 +605,8 @@ std::string provenance_section(const ReportData& d, double build_s) {
     body += "<tr><th>" + escape(k) + "</th><td>" + v + "</td></tr>";
   };
   row("session", "<code>" + escape(fs::absolute(s.dir()).string()) + "</code>");
-  row("captured by", "vdrig " + escape(m.software_version) + ", " + escape(m.created_utc));
-  row("report by", "vdrig " + escape(capture::software_version()));
+  row("captured by", escape(m.software_version) + ", " + escape(m.created_utc));
+  row("report by", escape(capture::software_version()));
   row("rig", "<code>" + escape(m.rig_config.value("backend", m.rig_config.dump().substr(0, 200))) + "</code>");
   row("scheme, bracket", "<code>" + escape(m.scheme) + "</code>, <code>" + escape(m.bracket) + "</code>");
   if (!m.extra.empty()) row("manifest extra", "<code>" + escape(m.extra.dump()) + "</code>");
