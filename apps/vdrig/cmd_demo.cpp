@@ -50,13 +50,24 @@ Status clear_earlier_demo(const fs::path& session_dir) {
                                                         {layout.maps_dir(), ".exr"},
                                                         {layout.renders_dir(), ".png"}};
   const std::set<fs::path> demo_files = {layout.manifest_file(), layout.journal_file(), layout.lock_file()};
+  // What `vdrig compare` writes into the demo session by default: renders/compare/compare.json and a folder of PNGs
+  // per map.
+  const fs::path compare = pipeline::compare_dir(layout);
+  const auto compare_output = [&](const fs::path& path) {
+    std::error_code ignored;
+    if (path.parent_path() == compare) return path.extension() == ".json" || fs::is_directory(path, ignored);
+    return path.parent_path().parent_path() == compare && path.extension() == ".png";
+  };
   for (const auto& entry : fs::directory_iterator(session_dir, ec)) {
     if (demo_files.count(entry.path()) && entry.is_regular_file()) continue;
     const auto folder = demo_folders.find(entry.path());
     if (folder == demo_folders.end() || !entry.is_directory()) return refuse("holds " + entry.path().string());
-    for (const auto& file : fs::directory_iterator(entry.path(), ec))
-      if (!file.is_regular_file() || file.path().extension() != folder->second)
-        return refuse("holds " + file.path().string());
+    for (const auto& file : fs::recursive_directory_iterator(entry.path(), ec)) {
+      if (file.is_regular_file() && file.path().parent_path() == entry.path() &&
+          file.path().extension() == folder->second)
+        continue;
+      if (!compare_output(file.path()) && file.path() != compare) return refuse("holds " + file.path().string());
+    }
   }
   if (ec) return make_error(ErrorCode::kIo, "cannot list " + session_dir.string() + ": " + ec.message());
   fs::remove_all(session_dir, ec);

@@ -446,7 +446,7 @@ std::string maps_section(const ReportData& d) {
 
 Result<std::string> compare_section(const ReportData& d) {
   const fs::path file =
-      d.options->compare_json.empty() ? compare_dir(*d.session) / "compare.json" : d.options->compare_json;
+      d.options->compare_json.empty() ? compare_dir(d.session->layout()) / "compare.json" : d.options->compare_json;
   if (!fs::exists(file)) {
     if (!d.options->compare_json.empty()) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
     return section("compare", "Renders against photographs",
@@ -642,7 +642,7 @@ std::string provenance_section(const ReportData& d, double build_s) {
   span_of("HDR merge (hdr/*.exr written)", layout.hdr_dir(), ".exr");
   span_of("observation maps (obsmap/*.vdobs written)", layout.obsmap_dir(), ".vdobs");
   span_of("fits (maps/*.exr written)", layout.maps_dir(), ".exr");
-  span_of("comparison (compare.json written)", compare_dir(s), ".json");
+  span_of("comparison (compare.json written)", compare_dir(layout), ".json");
   body += "<tr><td>this report</td><td></td><td></td><td>" + format("%.2f", build_s) + "</td></tr></table>\n";
   body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape(m.scheme) + "</code> (" +
           escape(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
