@@ -52,7 +52,7 @@ Status clear_earlier_demo(const fs::path& session_dir) {
   const std::set<fs::path> demo_files = {layout.manifest_file(), layout.journal_file(), layout.lock_file()};
   // What `vdrig compare` writes into the demo session by default: renders/compare/compare.json and a folder of PNGs
   // per map.
-  const fs::path compare = pipeline::compare_dir(layout);
+  const fs::path compare = layout.compare_dir();
   const auto compare_output = [&](const fs::path& path) {
     std::error_code ignored;
     if (path.parent_path() == compare) return path.extension() == ".json" || fs::is_directory(path, ignored);

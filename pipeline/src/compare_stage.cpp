@@ -62,8 +62,6 @@ DifferenceStats stats_of(const nlohmann::json& j) {
 
 }  // namespace
 
-fs::path compare_dir(const capture::SessionLayout& layout) { return layout.renders_dir() / "compare"; }
-
 std::vector<int> spread_holdout_views(int views, int count) {
   std::vector<int> out;
   for (int k = 1; k <= count; ++k) out.push_back(views * k / (count + 1));
@@ -189,7 +187,7 @@ Result<CompareReport> compare_maps(const capture::Session& session, const std::v
   report.highlight_fraction = options.highlight_fraction;
   report.region_map = map_files[reference].stem().string();
   report.command = options.command;
-  const fs::path out_dir = fs::absolute(options.out_dir.empty() ? compare_dir(session.layout()) : options.out_dir);
+  const fs::path out_dir = fs::absolute(options.out_dir.empty() ? session.layout().compare_dir() : options.out_dir);
   for (size_t m = 0; m < maps.size(); ++m) {
     auto renderer = viewer::SurfaceRenderer::create(maps[m]);
     if (!renderer) return renderer.error();

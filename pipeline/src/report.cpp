@@ -229,7 +229,7 @@ std::string coverage_section(const ReportData& d) {
   std::vector<Vec3d> route;
   for (const capture::PlannedView& v : m.views) {
     route.push_back(v.direction);
-    const int k = rank[v.index];
+    const int k = v.index >= 0 && v.index < int(rank.size()) ? rank[v.index] : -1;
     const double zenith_deg = std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi;
     const double azimuth_deg = std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi;
     std::string title = "view " + std::to_string(v.index) + ": azimuth " + format("%.1f", azimuth_deg) +
@@ -446,7 +446,7 @@ std::string maps_section(const ReportData& d) {
 
 Result<std::string> compare_section(const ReportData& d) {
   const fs::path file =
-      d.options->compare_json.empty() ? compare_dir(d.session->layout()) / "compare.json" : d.options->compare_json;
+      d.options->compare_json.empty() ? d.session->layout().compare_dir() / "compare.json" : d.options->compare_json;
   if (!fs::exists(file)) {
     if (!d.options->compare_json.empty()) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
     return section("compare", "Renders against photographs",
@@ -642,7 +642,7 @@ std::string provenance_section(const ReportData& d, double build_s) {
   span_of("HDR merge (hdr/*.exr written)", layout.hdr_dir(), ".exr");
   span_of("observation maps (obsmap/*.vdobs written)", layout.obsmap_dir(), ".vdobs");
   span_of("fits (maps/*.exr written)", layout.maps_dir(), ".exr");
-  span_of("comparison (compare.json written)", compare_dir(layout), ".json");
+  span_of("comparison (compare.json written)", layout.compare_dir(), ".json");
   body += "<tr><td>this report</td><td></td><td></td><td>" + format("%.2f", build_s) + "</td></tr></table>\n";
   body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape(m.scheme) + "</code> (" +
           escape(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
@@ -664,7 +664,7 @@ std::string provenance_section(const ReportData& d, double build_s) {
 constexpr const char* kStyle = R"(
 body { font-family: sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
 h1 { font-size: 1.5em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; } h3 { margin-bottom: 0.3em; }
-table { border-collapse: collapse; font-size: 0.85em; } td, th { border: 1px solid #ddd; padding: 2px 6px; }
+table { border-collapse: collapse; font-size: 0.85em; } td, th { border: 1px solid #ddd; padding: 2px 6px; white-space: nowrap; }
 th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
 .scroll { max-height: 360px; overflow-y: auto; display: inline-block; }
 .missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }

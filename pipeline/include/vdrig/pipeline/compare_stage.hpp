@@ -33,7 +33,7 @@ struct CompareOptions {
   double gamma = 1.0;               // display tone mapping, as `vdrig view --gamma`
   double highlight_fraction = 0.1;  // specular share of the total above which a pixel is "highlight"
   /// Where the images and compare.json go: OUT/<map file stem>/view_VVVV_{render,photo,diff_x8,regions}.png.
-  /// Empty: compare_dir(session.layout()).
+  /// Empty: session.layout().compare_dir().
   std::filesystem::path out_dir;
   std::string command;  // the command line that asked for the comparison, recorded in compare.json (may be empty)
 };
@@ -72,10 +72,6 @@ struct CompareReport {
   /// The Table 16.1 form: one row per map and view.
   std::string table() const;
 };
-
-/// SESSION/renders/compare: the default output folder of compare_maps; compare.json in it is what `vdrig report`
-/// reads.
-std::filesystem::path compare_dir(const capture::SessionLayout& layout);
 
 /// The views `vdrig fit --holdout N` and `vdrig demo` hold out of a session of `views` views: N spread over the
 /// session, never view 0 (the normal view): views * k / (N + 1) for k = 1..N.
