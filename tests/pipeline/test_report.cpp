@@ -55,6 +55,15 @@ TEST_F(Report, SessionWithMissingPartsShowsWhatIsThereAndNamesWhatIsMissing) {
   EXPECT_NE(section_of(*html, "maps").find("vdrig fit"), std::string::npos) << "names the command that makes it";
   EXPECT_EQ(html->find("http://"), std::string::npos);
   EXPECT_EQ(html->find("https://"), std::string::npos);
+
+  // A damaged map is reported in its section; the rest of the page is still there.
+  fs::create_directories(session->layout().maps_dir());
+  ASSERT_TRUE(write_file_atomic(session->layout().parameter_map_file("phong:1"), "not an EXR"));
+  auto damaged = build_report_html(dir_ / "session");
+  ASSERT_TRUE(damaged) << damaged.error().describe();
+  EXPECT_NE(section_of(*damaged, "maps").find("Missing: a readable map"), std::string::npos);
+  EXPECT_NE(section_of(*damaged, "texels").find("Missing: a readable fitted map"), std::string::npos);
+  EXPECT_NE(section_of(*damaged, "coverage").find("<circle"), std::string::npos);
 }
 
 TEST_F(Report, DamagedSessionIsAClearError) {
