@@ -127,6 +127,9 @@ Status run_demo(const DemoArgs& a) {
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
+  map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
+                                                    a.scheme + " --res " + std::to_string(a.resolution) +
+                                                    " --holdout " + std::to_string(a.holdout);
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.
   const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
   fs::create_directories(map_path.parent_path(), ec);

@@ -648,14 +648,19 @@ std::string provenance_section(const ReportData& d, double build_s) {
           escape(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
   for (const fs::path& file : d.map_files) {
     auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
-    std::string spec = image && image->string_attributes.count("vdrig.model_spec")
-                           ? image->string_attributes.at("vdrig.model_spec")
-                           : file.stem().string();
-    std::string held = image && image->string_attributes.count("vdrig.held_out_views")
-                           ? " (held out: views " + image->string_attributes.at("vdrig.held_out_views") + ")"
-                           : "";
-    body += "<li>" + escape(file.filename().string()) + ": <code>vdrig fit " + escape(s.dir().string()) + " --model " +
-            escape(spec) + "</code>" + escape(held) + " (the map records its model, not the command)</li>";
+    const auto attribute = [&](const std::string& key) {
+      return image && image->string_attributes.count(key) ? image->string_attributes.at(key) : std::string();
+    };
+    body += "<li>" + escape(file.filename().string()) + ": ";
+    if (!attribute("vdrig.command").empty()) {
+      body += "<code>" + escape(attribute("vdrig.command")) + "</code></li>";
+      continue;
+    }
+    const std::string spec =
+        attribute("vdrig.model_spec").empty() ? file.stem().string() : attribute("vdrig.model_spec");
+    const std::string held = attribute("vdrig.held_out_views");
+    body += "not recorded; the map holds model <code>" + escape(spec) + "</code>" +
+            (held.empty() ? "" : ", held-out views " + escape(held)) + "</li>";
   }
   body += "</ul>\n";
   return section("provenance", "Provenance: versions, timings, commands", body);

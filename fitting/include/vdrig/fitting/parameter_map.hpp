@@ -7,7 +7,8 @@
 // Header attributes: vdrig.model (the model's family), vdrig.model_spec (its full name), the model's own
 //   attributes (ReflectanceModel::write_attributes), vdrig.surface_width_mm, vdrig.surface_height_mm,
 //   vdrig.parameter_map_version, vdrig.source_session, vdrig.held_out_views (the observation-map views left out of
-//   the fit, comma-separated, when any; fit_map.hpp).
+//   the fit, comma-separated, when any; fit_map.hpp), vdrig.command (the command that made the map, when a command
+//   did: vdrig fit, vdrig demo).
 // Texel (s, t) is pixel (x = s, y = t) of the image, so row 0 holds the texels at the smallest y.
 #pragma once
 
