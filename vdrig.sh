@@ -108,6 +108,7 @@ case "$verb" in
     setup
     configure_and_build release
     bash scripts/screenshots.sh build/release/apps/vdrig docs/img
+    VDRIG=build/release/apps/vdrig bash scripts/report_screenshots.sh
     ;;
   format-check)
     setup

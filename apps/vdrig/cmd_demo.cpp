@@ -50,13 +50,24 @@ Status clear_earlier_demo(const fs::path& session_dir) {
                                                         {layout.maps_dir(), ".exr"},
                                                         {layout.renders_dir(), ".png"}};
   const std::set<fs::path> demo_files = {layout.manifest_file(), layout.journal_file(), layout.lock_file()};
+  // What `vdrig compare` writes into the demo session by default: renders/compare/compare.json and a folder of PNGs
+  // per map.
+  const fs::path compare = layout.compare_dir();
+  const auto compare_output = [&](const fs::path& path) {
+    std::error_code ignored;
+    if (path.parent_path() == compare) return path.extension() == ".json" || fs::is_directory(path, ignored);
+    return path.parent_path().parent_path() == compare && path.extension() == ".png";
+  };
   for (const auto& entry : fs::directory_iterator(session_dir, ec)) {
     if (demo_files.count(entry.path()) && entry.is_regular_file()) continue;
     const auto folder = demo_folders.find(entry.path());
     if (folder == demo_folders.end() || !entry.is_directory()) return refuse("holds " + entry.path().string());
-    for (const auto& file : fs::directory_iterator(entry.path(), ec))
-      if (!file.is_regular_file() || file.path().extension() != folder->second)
-        return refuse("holds " + file.path().string());
+    for (const auto& file : fs::recursive_directory_iterator(entry.path(), ec)) {
+      if (file.is_regular_file() && file.path().parent_path() == entry.path() &&
+          file.path().extension() == folder->second)
+        continue;
+      if (!compare_output(file.path()) && file.path() != compare) return refuse("holds " + file.path().string());
+    }
   }
   if (ec) return make_error(ErrorCode::kIo, "cannot list " + session_dir.string() + ": " + ec.message());
   fs::remove_all(session_dir, ec);
@@ -95,8 +106,7 @@ Status run_demo(const DemoArgs& a) {
   // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
   // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
   // ones out and measures itself on them (holdout.R/G/B).
-  std::vector<int> held_out;
-  for (int k = 1; k <= a.holdout; ++k) held_out.push_back(n_views * k / (a.holdout + 1));
+  const std::vector<int> held_out = pipeline::spread_holdout_views(n_views, a.holdout);
 
   std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", a.resolution, a.resolution, n_views,
               held_out.size());
@@ -117,6 +127,9 @@ Status run_demo(const DemoArgs& a) {
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
+  map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
+                                                    a.scheme + " --res " + std::to_string(a.resolution) +
+                                                    " --holdout " + std::to_string(a.holdout);
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.
   const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
   fs::create_directories(map_path.parent_path(), ec);

@@ -52,6 +52,19 @@ Status check_output_writable(const fs::path& out) {
   return Status::ok();
 }
 
+/// The command line that asks for this fit (recorded in the map, shown by `vdrig report`).
+std::string fit_command(const FitArgs& a) {
+  std::string cmd = "vdrig fit " + a.session + " --model " + a.model;
+  cmd += a.obsmap.empty() ? " --res " + a.resolution : " --obsmap " + a.obsmap;
+  if (!a.out.empty()) cmd += " --out " + a.out;
+  if (a.holdout > 0) cmd += " --holdout " + std::to_string(a.holdout);
+  if (a.residual != "absolute") cmd += " --residual " + a.residual;
+  if (a.shared_lights) cmd += " --shared-lights";
+  if (a.smoothing != 0.0) cmd += " --smoothing " + std::to_string(a.smoothing);
+  if (a.window != "none") cmd += " --window " + a.window;
+  return cmd;
+}
+
 Status run_fit(const FitArgs& a) {
   auto model = fitting::parse_model(a.model);
   if (!model) return model.error();
@@ -90,7 +103,7 @@ Status run_fit(const FitArgs& a) {
   if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && !options.model->linear_in_shared_directions())
     return make_error(ErrorCode::kInvalidArgument,
                       "--smoothing and --window do not apply to " + options.model->family() + " models");
-  for (int k = 1; k <= a.holdout; ++k) options.held_out.push_back(n_views * k / (a.holdout + 1));
+  options.held_out = pipeline::spread_holdout_views(n_views, a.holdout);
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever --res is.
@@ -124,6 +137,7 @@ Status run_fit(const FitArgs& a) {
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
+  map->image().string_attributes["vdrig.command"] = fit_command(a);
   VDRIG_TRY(map->write(out));
 
   // Summary: median RMS over texels with a fit (and held-out RMS when views were held out).

@@ -52,5 +52,6 @@ fs::path SessionLayout::parameter_map_file(const std::string& model_spec) const 
 }
 
 fs::path SessionLayout::renders_dir() const { return dir_ / "renders"; }
+fs::path SessionLayout::compare_dir() const { return renders_dir() / "compare"; }
 
 }  // namespace vdrig::capture

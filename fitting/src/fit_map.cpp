@@ -138,10 +138,10 @@ Result<ParameterMap> fit_tiles(const TileGrid& grid, const TileLoader& load, con
     return for_each_texel(grid, load, options.threads, fit_texel, progress);
   };
   auto map = options.model->fit_map(context);
-  // Which views the held-out RMS (holdout.R/G/B) was measured on, for tools that show them (the texel inspector).
   if (map && !held_out->empty()) {
+    // Recorded so that later tools (vdrig compare --holdout, the texel inspector) find the views the fit never saw.
     std::string views;
-    for (const int v : held_out.value()) views += (views.empty() ? "" : ",") + std::to_string(v);
+    for (int v : held_out.value()) views += (views.empty() ? "" : ",") + std::to_string(v);
     map->image().string_attributes["vdrig.held_out_views"] = views;
   }
   return map;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
+#include "surface_rays.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/pipeline/hdr_stage.hpp"
@@ -58,17 +59,9 @@ Result<Comparison> render_and_compare(const capture::Session& session, const fit
 cv::Mat surface_region_mask(const CameraModel& camera, const ViewPose& pose, double x0, double y0, double x1,
                             double y1) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  const Mat3d Rt = pose.R.transpose();
-  const Vec3d c = pose.camera_centre();
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) {
-      const Vec3d ray = Rt * camera.pixel_ray({double(x), double(y)});
-      if (std::abs(ray.z()) < 1e-12) continue;
-      const double s = -c.z() / ray.z();
-      if (s <= 0) continue;
-      const Vec3d p = c + s * ray;
-      if (p.x() >= x0 && p.x() <= x1 && p.y() >= y0 && p.y() <= y1) mask.at<uint8_t>(y, x) = 255;
-    }
+  for_each_surface_hit(camera, pose, [&](int x, int y, const Vec3d& p) {
+    if (p.x() >= x0 && p.x() <= x1 && p.y() >= y0 && p.y() <= y1) mask.at<uint8_t>(y, x) = 255;
+  });
   return mask;
 }
 

@@ -33,6 +33,11 @@ TEST(CliDemo, RunsAgainOverItsOwnSessionButNeverOverAUsersFile) {
                                          "latlong:2",          "--res", "4",     "--holdout",          "1"};
   const auto first = testing::run_process(demo, 600.0);
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
+  // What `vdrig compare` writes into the session by default (renders/compare/) is the demo's too.
+  const auto compared = testing::run_process(
+      {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--holdout"}, 600.0);
+  ASSERT_EQ(compared.exit_code, 0) << compared.out << compared.err;
+  EXPECT_TRUE(fs::exists(session / "renders" / "compare" / "compare.json"));
   const auto again = testing::run_process(demo, 600.0);  // the README's `./vdrig.sh demo`, run a second time
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(fs::exists(session / "maps" / "phong:1.exr"));

@@ -20,6 +20,8 @@
 //   SESSION/maps/<model spec>.exr      a fitted parameter map (fitting/parameter_map.hpp), named by its model spec:
 //                                      maps/phong:1.exr, maps/phong:auto.exr, maps/hsh:6.exr.
 //   SESSION/renders/                   renders of held-out views beside their photographs and difference images.
+//   SESSION/renders/compare/           `vdrig compare`'s default output: compare.json and <map>/view_VVVV_*.png
+//                                      (pipeline/compare_stage.hpp); `vdrig report` reads compare.json.
 //
 // VVVV and EE are zero-padded to 4 and 2 digits (wider numbers are written in full). The type only computes paths; it
 // creates nothing and touches no file.
@@ -63,6 +65,7 @@ class SessionLayout {
   std::filesystem::path parameter_map_file(const std::string& model_spec) const;
 
   std::filesystem::path renders_dir() const;
+  std::filesystem::path compare_dir() const;
 
  private:
   std::filesystem::path dir_;

@@ -6,8 +6,9 @@
 //   A fit may add channels of its own (phong's "shared_lights").
 // Header attributes: vdrig.model (the model's family), vdrig.model_spec (its full name), the model's own
 //   attributes (ReflectanceModel::write_attributes), vdrig.surface_width_mm, vdrig.surface_height_mm,
-//   vdrig.parameter_map_version, vdrig.source_session, vdrig.held_out_views (the views holdout.R/G/B were measured
-//   on, "3,7,11"; written by fit_parameter_map when views were held out).
+//   vdrig.parameter_map_version, vdrig.source_session, vdrig.held_out_views (the observation-map views left out of
+//   the fit, on which holdout.R/G/B were measured, comma-separated, when any; fit_map.hpp), vdrig.command (the
+//   command that made the map, when a command did: vdrig fit, vdrig demo).
 // Texel (s, t) is pixel (x = s, y = t) of the image, so row 0 holds the texels at the smallest y.
 #pragma once
 

@@ -5,6 +5,7 @@
 
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/pipeline/capture_stage.hpp"
+#include "vdrig/pipeline/compare_stage.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/pipeline/hdr_stage.hpp"
 #include "vdrig/pipeline/obsmap_stage.hpp"

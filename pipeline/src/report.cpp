@@ -1,0 +1,719 @@
+#include "vdrig/pipeline/report.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "vdrig/calib/extrinsics.hpp"
+#include "vdrig/calib/hdr.hpp"
+#include "vdrig/capture/session.hpp"
+#include "vdrig/core/camera.hpp"
+#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_read.hpp"
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/pipeline/compare_stage.hpp"
+
+namespace vdrig::pipeline {
+namespace fs = std::filesystem;
+namespace {
+
+// ---- HTML and image helpers ----
+
+std::string escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string format(const char* fmt, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, value);
+  return buf;
+}
+
+std::string base64(const std::vector<uchar>& bytes) {
+  static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const uint32_t n = (uint32_t(bytes[i]) << 16) | (i + 1 < bytes.size() ? uint32_t(bytes[i + 1]) << 8 : 0) |
+                       (i + 2 < bytes.size() ? uint32_t(bytes[i + 2]) : 0);
+    out += kAlphabet[(n >> 18) & 63];
+    out += kAlphabet[(n >> 12) & 63];
+    out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? kAlphabet[n & 63] : '=';
+  }
+  return out;
+}
+
+/// An <img> of an 8-bit image (BGR or grey) as an inline PNG.
+std::string img_tag(const cv::Mat& image, const std::string& alt) {
+  std::vector<uchar> png;
+  cv::imencode(".png", image, png);
+  return "<img alt=\"" + escape(alt) + "\" width=\"" + std::to_string(image.cols) + "\" height=\"" +
+         std::to_string(image.rows) + "\" src=\"data:image/png;base64," + base64(png) + "\">";
+}
+
+std::string missing(const std::string& what) { return "<p class=\"missing\">Missing: " + what + "</p>\n"; }
+
+/// Viridis (OpenCV's table) at t in [0, 1], as "#rrggbb".
+std::string viridis(double t) {
+  static const cv::Mat table = [] {
+    cv::Mat ramp(1, 256, CV_8UC1);
+    for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
+    cv::Mat colours;
+    cv::applyColorMap(ramp, colours, cv::COLORMAP_VIRIDIS);
+    return colours;
+  }();
+  const int i = std::clamp(static_cast<int>(std::lround(std::clamp(t, 0.0, 1.0) * 255)), 0, 255);
+  const cv::Vec3b bgr = table.at<cv::Vec3b>(0, i);
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", bgr[2], bgr[1], bgr[0]);
+  return buf;
+}
+
+/// A horizontal colour bar (viridis) from lo to hi, its label above; `hi_clipped`: values above hi are shown as hi.
+std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped = false) {
+  static int id = 0;
+  const std::string gid = "cb" + std::to_string(++id);
+  std::string svg =
+      "<svg class=\"colourbar\" width=\"260\" height=\"42\" viewBox=\"0 0 260 42\"><defs><linearGradient "
+      "id=\"" +
+      gid + "\">";
+  for (int k = 0; k <= 8; ++k)
+    svg += "<stop offset=\"" + format("%.3f", k / 8.0) + "\" stop-color=\"" + viridis(k / 8.0) + "\"/>";
+  svg += "</linearGradient></defs><text x=\"5\" y=\"11\" font-size=\"11\">" + escape(label) + "</text>";
+  svg += "<rect x=\"5\" y=\"15\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
+  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape(format("%.4g", lo)) + "</text>";
+  svg += "<text x=\"255\" y=\"40\" font-size=\"11\" text-anchor=\"end\">" + std::string(hi_clipped ? "&#8805; " : "") +
+         escape(format("%.4g", hi)) + "</text>";
+  return svg + "</svg>";
+}
+
+/// A false-colour image of a float plane (NaN shown grey), scaled up (nearest) to at least min_width, with its bar.
+/// The scale runs from the minimum to the 99th percentile, so that a few outliers do not darken the whole map.
+std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width) {
+  cv::Mat finite = plane == plane;  // not NaN
+  std::vector<float> values;
+  for (int y = 0; y < plane.rows; ++y)
+    for (int x = 0; x < plane.cols; ++x)
+      if (finite.at<uint8_t>(y, x)) values.push_back(plane.at<float>(y, x));
+  double lo = 0, hi = 0, max = 0;
+  if (!values.empty()) {
+    std::sort(values.begin(), values.end());
+    lo = values.front(), max = values.back();
+    hi = values[std::min(values.size() - 1, static_cast<size_t>(0.99 * double(values.size())))];
+  }
+  cv::Mat scaled;
+  plane.convertTo(scaled, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0.0);
+  cv::Mat colours;
+  cv::applyColorMap(scaled, colours, cv::COLORMAP_VIRIDIS);
+  colours.setTo(cv::Scalar(128, 128, 128), ~finite);
+  const int factor = std::max(1, (min_width + plane.cols - 1) / plane.cols);
+  cv::resize(colours, colours, {}, factor, factor, cv::INTER_NEAREST);
+  return "<figure>" + img_tag(colours, label) + "<figcaption>" + colour_bar(lo, hi, label, max > hi) +
+         "</figcaption></figure>";
+}
+
+// ---- Polar plots of the hemisphere ----
+
+struct PolarPoint {
+  Vec3d direction;
+  std::string fill;  // "none" for a hollow point
+  double radius_px = 4;
+  std::string title;
+};
+
+/// The upper hemisphere seen from above: radius proportional to the zenith angle (0 at the centre, 90 deg at the rim),
+/// azimuth counter-clockwise from +x (to the right). `route` (may be empty) is drawn as a polyline under the points.
+std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<Vec3d>& route, int size_px = 360) {
+  const double c = size_px / 2.0, r = size_px / 2.0 - 18;
+  auto xy = [&](const Vec3d& d) {
+    const double zenith = std::acos(std::clamp(d.z(), -1.0, 1.0));
+    const double azimuth = std::atan2(d.y(), d.x());
+    const double rho = r * zenith / (kPi / 2);
+    return std::make_pair(c + rho * std::cos(azimuth), c - rho * std::sin(azimuth));
+  };
+  std::string svg = "<svg class=\"polar\" width=\"" + std::to_string(size_px) + "\" height=\"" +
+                    std::to_string(size_px) + "\" viewBox=\"0 0 " + std::to_string(size_px) + " " +
+                    std::to_string(size_px) + "\">";
+  for (int ring = 1; ring <= 3; ++ring)
+    svg += "<circle cx=\"" + format("%.1f", c) + "\" cy=\"" + format("%.1f", c) + "\" r=\"" +
+           format("%.1f", r * ring / 3) + "\" fill=\"none\" stroke=\"#bbb\"/>";
+  svg += "<line x1=\"" + format("%.1f", c - r) + "\" y1=\"" + format("%.1f", c) + "\" x2=\"" + format("%.1f", c + r) +
+         "\" y2=\"" + format("%.1f", c) + "\" stroke=\"#ddd\"/><line x1=\"" + format("%.1f", c) + "\" y1=\"" +
+         format("%.1f", c - r) + "\" x2=\"" + format("%.1f", c) + "\" y2=\"" + format("%.1f", c + r) +
+         "\" stroke=\"#ddd\"/>";
+  svg += "<text x=\"" + format("%.1f", c + r + 2) + "\" y=\"" + format("%.1f", c - 3) +
+         "\" font-size=\"10\" text-anchor=\"end\">+x</text><text x=\"" + format("%.1f", c + 3) +
+         "\" y=\"12\" "
+         "font-size=\"10\">+y</text><text x=\"" +
+         format("%.1f", c + r / 3 + 2) + "\" y=\"" + format("%.1f", c + 11) +
+         "\" font-size=\"9\" fill=\"#888\">30&#176;</text><text x=\"" + format("%.1f", c + r + 2) + "\" y=\"" +
+         format("%.1f", c + 11) + "\" font-size=\"9\" fill=\"#888\">90&#176;</text>";
+  if (route.size() > 1) {
+    svg +=
+        "<polyline class=\"route\" fill=\"none\" stroke=\"#e07020\" stroke-width=\"1\" stroke-opacity=\"0.7\" "
+        "points=\"";
+    for (const Vec3d& d : route) {
+      const auto [x, y] = xy(d);
+      svg += format("%.1f", x) + "," + format("%.1f", y) + " ";
+    }
+    svg += "\"/>";
+  }
+  for (const PolarPoint& p : points) {
+    const auto [x, y] = xy(p.direction);
+    svg += "<circle cx=\"" + format("%.1f", x) + "\" cy=\"" + format("%.1f", y) + "\" r=\"" +
+           format("%.1f", p.radius_px) + "\" fill=\"" + p.fill + "\" stroke=\"" + (p.fill == "none" ? "#888" : "#333") +
+           "\" stroke-width=\"0.5\"><title>" + escape(p.title) + "</title></circle>";
+  }
+  return svg + "</svg>";
+}
+
+// ---- Sections ----
+
+struct ReportData {
+  const capture::Session* session = nullptr;
+  const ReportOptions* options = nullptr;
+  std::vector<fs::path> map_files;  // SESSION/maps/*.exr, sorted
+};
+
+std::string section(const std::string& id, const std::string& title, const std::string& body) {
+  return "<section id=\"" + id + "\">\n<h2>" + escape(title) + "</h2>\n" + body + "</section>\n";
+}
+
+/// Views in the order they were captured (by the sequence number of their first journaled frame).
+std::vector<int> capture_order(const capture::Session& session) {
+  std::map<uint64_t, int> first;
+  std::set<int> seen;
+  for (const capture::FrameRecord& f : session.frames())
+    if (session.view_complete(f.view) && seen.insert(f.view).second) first[f.sequence] = f.view;
+  std::vector<int> order;
+  for (const auto& [sequence, view] : first) order.push_back(view);
+  return order;
+}
+
+std::string coverage_section(const ReportData& d) {
+  const capture::Manifest& m = d.session->manifest();
+  const std::vector<int> order = capture_order(*d.session);
+  std::vector<int> rank(m.views.size(), -1);
+  for (size_t i = 0; i < order.size(); ++i)
+    if (order[i] >= 0 && order[i] < int(rank.size())) rank[order[i]] = int(i);
+  std::vector<PolarPoint> points;
+  std::vector<Vec3d> route;
+  for (const capture::PlannedView& v : m.views) {
+    route.push_back(v.direction);
+    const int k = v.index >= 0 && v.index < int(rank.size()) ? rank[v.index] : -1;
+    const double zenith_deg = std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi;
+    const double azimuth_deg = std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi;
+    std::string title = "view " + std::to_string(v.index) + ": azimuth " + format("%.1f", azimuth_deg) +
+                        " deg, zenith " + format("%.1f", zenith_deg) + " deg, ";
+    title += k >= 0 ? "captured " + std::to_string(k + 1) + "th" : "not captured";
+    points.push_back(
+        {v.direction, k >= 0 ? viridis(order.size() > 1 ? double(k) / (order.size() - 1) : 0.0) : "none", 4.0, title});
+  }
+  std::string body = "<p>Scheme <code>" + escape(m.scheme) + "</code>: " + std::to_string(order.size()) + " of " +
+                     std::to_string(m.views.size()) +
+                     " planned views captured. Seen from above: the centre is the surface normal, the rim 90&#176; "
+                     "from it; the orange line is the planned route, filled points the captured views coloured by "
+                     "capture order, hollow points views not captured.</p>\n";
+  body += "<figure>" + polar_plot(points, route) + "<figcaption>" +
+          colour_bar(1, std::max<double>(1, order.size()), "capture order") + "</figcaption></figure>\n";
+  if (order.size() < m.views.size())
+    body += missing(std::to_string(m.views.size() - order.size()) +
+                    " planned views are not captured (resume with vdrig capture or vdrigd)");
+  return section("coverage", "Coverage of the hemisphere", body);
+}
+
+std::string views_section(const ReportData& d) {
+  const capture::Session& s = *d.session;
+  int64_t t0 = 0;
+  for (const auto& f : s.frames())
+    if (t0 == 0 || (f.timestamp_ns > 0 && f.timestamp_ns < t0)) t0 = f.timestamp_ns;
+  std::string rows;
+  int merged = 0, clipped_views = 0;
+  // The clipped fraction of every merged view, read in parallel (the slowest part of the report): -1 not merged, -2
+  // unreadable.
+  const auto& planned = s.manifest().views;
+  std::vector<double> clipped_fraction(planned.size(), -1.0);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(planned.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const int v = planned[i].index;
+      if (!s.view_complete(v) || !fs::exists(s.layout().hdr_file(v))) continue;
+      auto hdr = calib::read_hdr_exr(s.layout().hdr_file(v));
+      clipped_fraction[i] = hdr && !hdr->mask.empty()
+                                ? cv::countNonZero(hdr->mask & calib::kHdrSaturated) / double(hdr->mask.total())
+                                : -2.0;
+    }
+  });
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const capture::PlannedView& v = planned[i];
+    const auto frames = s.frames_of_view(v.index);
+    std::string exposures;
+    int n_saturated = 0;
+    int64_t first = 0, last = 0;
+    for (const auto& f : frames) {
+      exposures += (exposures.empty() ? "" : ", ") + format("%.4g", f.exposure_s * 1000.0);
+      n_saturated += f.saturated;
+      first = first == 0 ? f.timestamp_ns : std::min(first, f.timestamp_ns);
+      last = std::max(last, f.timestamp_ns);
+    }
+    std::string clipped = "&#8211;";
+    if (clipped_fraction[i] >= 0) {
+      ++merged;
+      clipped_views += clipped_fraction[i] > 0;
+      clipped = format("%.3f", 100.0 * clipped_fraction[i]);
+    } else if (clipped_fraction[i] == -2.0) {
+      clipped = "unreadable";
+    }
+    rows += "<tr" + std::string(s.view_complete(v.index) ? "" : " class=\"incomplete\"") + "><td>" +
+            std::to_string(v.index) + "</td><td>" +
+            format("%.1f", std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi) + "</td><td>" +
+            format("%.1f", std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi) + "</td><td>" +
+            (exposures.empty() ? "not captured" : exposures) + "</td><td>" +
+            (frames.empty() ? "" : std::to_string(n_saturated) + " of " + std::to_string(frames.size())) + "</td><td>" +
+            clipped + "</td><td>" + (frames.empty() ? "" : format("%.2f", (first - t0) * 1e-9)) + "</td><td>" +
+            (frames.empty() ? "" : format("%.3f", (last - first) * 1e-9)) + "</td></tr>\n";
+  }
+  std::string body = "<p>Bracket <code>" + escape(s.manifest().bracket) +
+                     "</code>. <em>Saturated frames</em>: frames of the bracket with a pixel at the maximum code; "
+                     "<em>clipped</em>: share of the merged HDR pixels saturated in every exposure (their radiance is "
+                     "a lower bound). Times from the journal, relative to the first frame.</p>\n";
+  if (merged == 0)
+    body += missing("merged HDR views (run vdrig hdr " + escape(s.dir().string()) + "): no clipped fractions");
+  else
+    body += "<p>" + std::to_string(clipped_views) + " of " + std::to_string(merged) +
+            " merged views have clipped pixels.</p>\n";
+  body +=
+      "<div class=\"scroll\"><table><thead><tr><th>view</th><th>azimuth &#176;</th><th>zenith &#176;</th>"
+      "<th>exposures ms</th><th>saturated frames</th><th>clipped %</th><th>start s</th><th>duration s</th>"
+      "</tr></thead><tbody>\n" +
+      rows + "</tbody></table></div>\n";
+  return section("views", "Views: brackets, saturation, capture time", body);
+}
+
+std::string calibration_section(const ReportData& d) {
+  const capture::SessionLayout layout = d.session->layout();
+  std::string body;
+  if (!fs::exists(layout.camera_file())) {
+    body += missing("calib/camera.yml (intrinsics: vdrig calib intrinsics, then vdrig calib extrinsics " +
+                    escape(d.session->dir().string()) + "); the stages use the simulator's ground truth");
+  } else if (auto camera = CameraModel::load_yaml(layout.camera_file()); !camera) {
+    body += missing("a readable calib/camera.yml: " + escape(camera.error().message));
+  } else {
+    double rms = -1;
+    try {
+      cv::FileStorage fs(layout.camera_file().string(), cv::FileStorage::READ);
+      if (!fs["avg_reprojection_error"].empty()) fs["avg_reprojection_error"] >> rms;
+    } catch (const cv::Exception&) {
+    }
+    const CameraModel& c = camera.value();
+    body +=
+        "<table><tr><th>image</th><th>fx</th><th>fy</th><th>cx</th><th>cy</th><th>k1</th><th>k2</th><th>p1</th>"
+        "<th>p2</th><th>k3</th><th>RMS reprojection px</th></tr><tr><td>" +
+        std::to_string(c.width) + "x" + std::to_string(c.height) + "</td>";
+    for (double x : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3})
+      body += "<td>" + format("%.5g", x) + "</td>";
+    body += "<td>" + (rms >= 0 ? format("%.4f", rms) : std::string("not recorded")) + "</td></tr></table>\n";
+  }
+  if (!fs::exists(layout.views_file())) {
+    body += missing("calib/views.json (per-view marker poses and the kinematic fit: vdrig calib extrinsics " +
+                    escape(d.session->dir().string()) + ")");
+    return section("calibration", "Calibration", body);
+  }
+  auto views = calib::read_views_json(layout.views_file());
+  if (!views) {
+    body += missing("a readable calib/views.json: " + escape(views.error().message));
+    return section("calibration", "Calibration", body);
+  }
+  // Per-view marker reprojection error as bars (views without a pose: red tick).
+  const int n = static_cast<int>(views->views.size());
+  double worst = views->max_error_px;
+  for (const auto& v : views->views)
+    if (v.extrinsics) worst = std::max(worst, v.extrinsics->reprojection_error_px);
+  const int width = std::max(300, std::min(1200, 4 * n + 60)), height = 160;
+  const double bar = (width - 50.0) / std::max(1, n);
+  std::string svg = "<svg class=\"bars\" width=\"" + std::to_string(width) + "\" height=\"" + std::to_string(height) +
+                    "\" viewBox=\"0 0 " + std::to_string(width) + " " + std::to_string(height) + "\">";
+  auto y_of = [&](double e) { return 140 - 130 * e / worst; };
+  int usable = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto& v = views->views[i];
+    const double x = 45 + i * bar;
+    if (v.extrinsics) {
+      const double e = v.extrinsics->reprojection_error_px;
+      usable += v.usable();
+      svg += "<rect x=\"" + format("%.1f", x) + "\" y=\"" + format("%.1f", y_of(e)) + "\" width=\"" +
+             format("%.2f", std::max(1.0, bar - 1)) + "\" height=\"" + format("%.1f", 140 - y_of(e)) + "\" fill=\"" +
+             (v.extrinsics->excluded ? "#d04040" : "#4070c0") + "\"><title>view " + std::to_string(v.index) + ": " +
+             format("%.3f", e) + " px</title></rect>";
+    } else {
+      svg += "<rect x=\"" + format("%.1f", x) + "\" y=\"136\" width=\"" + format("%.2f", std::max(1.0, bar - 1)) +
+             "\" height=\"4\" fill=\"#d04040\"><title>view " + std::to_string(v.index) + ": " + escape(v.error) +
+             "</title></rect>";
+    }
+  }
+  svg += "<line x1=\"45\" x2=\"" + std::to_string(width - 5) + "\" y1=\"" + format("%.1f", y_of(views->max_error_px)) +
+         "\" y2=\"" + format("%.1f", y_of(views->max_error_px)) +
+         "\" stroke=\"#d04040\" stroke-dasharray=\"4 3\"/><text x=\"2\" y=\"14\" font-size=\"10\">" +
+         format("%.2f", worst) + " px</text><text x=\"2\" y=\"140\" font-size=\"10\">0</text></svg>";
+  body += "<p>Marker reprojection error per view (RMS over the corner markers, px); dashed: the threshold " +
+          format("%.2f", views->max_error_px) + " px above which a view is excluded; red: excluded or no pose. " +
+          std::to_string(usable) + " of " + std::to_string(n) + " views usable.</p>\n<figure>" + svg + "</figure>\n";
+  if (views->kinematics.is_null()) {
+    body += missing("the kinematic fit (fewer than two usable views)");
+  } else {
+    body += "<p>Kinematic fit of the rig:</p><table>";
+    for (const auto& [key, value] : views->kinematics.items())
+      if (!value.is_array() && !value.is_object())
+        body += "<tr><th>" + escape(key) + "</th><td>" + escape(value.dump()) + "</td></tr>";
+    body += "</table>\n";
+  }
+  return section("calibration", "Calibration", body);
+}
+
+/// The mean of channels base.R/G/B of a map image, or an empty Mat when absent.
+cv::Mat rgb_mean(const ExrImage& image, const std::string& base) {
+  cv::Mat sum;
+  for (const char* c : {".R", ".G", ".B"}) {
+    const int i = image.find(base + c);
+    if (i < 0) return {};
+    if (sum.empty())
+      sum = image.channels[i].clone();
+    else
+      sum += image.channels[i];
+  }
+  return sum / 3.0;
+}
+
+std::string maps_section(const ReportData& d) {
+  std::string body;
+  if (d.map_files.empty())
+    return section("maps", "Fitted maps",
+                   missing("fitted maps in maps/ (vdrig fit " + escape(d.session->dir().string()) +
+                           " --model phong:1 --holdout 3)"));
+  for (const fs::path& file : d.map_files) {
+    body += "<article class=\"map\"><h3>" + escape(file.filename().string()) + "</h3>\n";
+    auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
+    if (!image) {
+      body += missing("a readable map: " + escape(image.error().message)) + "</article>\n";
+      continue;
+    }
+    const auto& attrs = image->string_attributes;
+    const auto attr = [&](const std::string& k) { return attrs.count(k) ? attrs.at(k) : std::string("&#8211;"); };
+    body += "<p>Model <code>" + escape(attr("vdrig.model_spec")) + "</code>, " + std::to_string(image->width) + "x" +
+            std::to_string(image->height) + " texels; held-out views: " + escape(attr("vdrig.held_out_views")) +
+            ".</p>\n<div class=\"row\">";
+    const cv::Mat rms = rgb_mean(*image, "rms");
+    if (!rms.empty()) body += false_colour(rms, "fit residual RMS (mean of R, G, B)", d.options->map_image_px);
+    const cv::Mat holdout = rgb_mean(*image, "holdout");
+    if (!holdout.empty()) body += false_colour(holdout, "held-out RMS (mean of R, G, B)", d.options->map_image_px);
+    if (const int lobes = image->find("lobes"); lobes >= 0)
+      body += false_colour(image->channels[lobes], "lobes (phong:auto)", d.options->map_image_px);
+    body += "</div>\n";
+    if (rms.empty()) body += missing("the fit residual channels rms.R/G/B");
+    if (holdout.empty()) body += missing("held-out error: fitted without --holdout");
+    body += "</article>\n";
+  }
+  return section("maps", "Fitted maps", body);
+}
+
+Result<std::string> compare_section(const ReportData& d) {
+  const fs::path file =
+      d.options->compare_json.empty() ? d.session->layout().compare_dir() / "compare.json" : d.options->compare_json;
+  if (!fs::exists(file)) {
+    if (!d.options->compare_json.empty()) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
+    return section("compare", "Renders against photographs",
+                   missing("a comparison (vdrig compare " + escape(d.session->dir().string()) +
+                           " --maps phong:1 --holdout writes " + escape(file.string()) + ")"));
+  }
+  auto json = read_json_file(file);
+  if (!json) return json.error();
+  auto report = CompareReport::from_json(json.value());
+  if (!report) return make_error(report.error().code, file.string() + ": " + report.error().message);
+  std::string body =
+      "<p>Mean / standard deviation of |render &#8722; photo| in 8-bit codes after the same tone "
+      "mapping (gamma " +
+      format("%.3g", report->gamma) + "); highlight pixels: specular term above " +
+      format("%.0f", 100 * report->highlight_fraction) + " % of the total in map <code>" + escape(report->region_map) +
+      "</code>. Difference images amplified 8x.</p>\n";
+  body +=
+      "<table><thead><tr><th>map</th><th>view</th><th>diffuse</th><th>highlight</th><th>all</th><th>render</th>"
+      "<th>photo</th><th>difference x8</th><th>regions</th></tr></thead><tbody>\n";
+  auto cell = [](const DifferenceStats& s) {
+    return s.samples == 0 ? std::string("&#8211;") : format("%.2f", s.mean) + " / " + format("%.2f", s.stddev);
+  };
+  std::string absent;
+  for (const ViewComparison& r : report->rows) {
+    body += "<tr><td>" + escape(r.map_name) + "</td><td>" + std::to_string(r.view) + "</td><td>" + cell(r.diffuse) +
+            "</td><td>" + cell(r.highlight) + "</td><td>" + cell(r.all) + "</td>";
+    for (const auto& [png, alt] : {std::pair{r.render_png, "render"}, std::pair{r.photo_png, "photo"},
+                                   std::pair{r.diff_png, "difference"}, std::pair{r.regions_png, "regions"}}) {
+      auto image = read_png(png);
+      if (!image || image->depth() != CV_8U) {
+        body += "<td>&#8211;</td>";
+        absent += " " + png.filename().string();
+        continue;
+      }
+      cv::Mat thumb;
+      const double scale = double(d.options->thumbnail_width_px) / image->cols;
+      cv::resize(image.value(), thumb, {}, scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_NEAREST);
+      body += "<td>" + img_tag(thumb, std::string(alt) + " of view " + std::to_string(r.view)) + "</td>";
+    }
+    body += "</tr>\n";
+  }
+  body += "</tbody></table>\n";
+  if (!absent.empty()) body += missing("compare images (run vdrig compare again):" + escape(absent));
+  if (!report->command.empty()) body += "<p>Made by <code>" + escape(report->command) + "</code>.</p>\n";
+  return section("compare", "Renders against photographs", body);
+}
+
+struct TexelPick {
+  int s = 0, t = 0;
+  std::string why;
+};
+
+std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapReader& obs, const TexelPick& pick,
+                       const std::vector<int>& held_out) {
+  auto tile = obs.read_tile_of_texel(pick.s, pick.t);
+  if (!tile)
+    return missing("texel " + std::to_string(pick.s) + "," + std::to_string(pick.t) + ": " +
+                   escape(tile.error().message));
+  const fitting::TexelObservations o = tile->texel(pick.s, pick.t);
+  std::vector<double> residual(o.size());
+  double worst = 1e-12;
+  for (size_t i = 0; i < o.size(); ++i) {
+    const Vec3d v = o.direction[i].cast<double>();
+    residual[i] = (map.evaluate(pick.s, pick.t, v) - o.radiance[i].cast<double>()).norm();
+    worst = std::max(worst, residual[i]);
+  }
+  std::vector<PolarPoint> points;
+  for (size_t i = 0; i < o.size(); ++i) {
+    const bool held = std::binary_search(held_out.begin(), held_out.end(), o.view[i]);
+    const Vec3d rgb = o.radiance[i].cast<double>();
+    points.push_back({o.direction[i].cast<double>(), viridis(residual[i] / worst), held ? 6.0 : 3.5,
+                      "view " + std::to_string(o.view[i]) + (held ? " (held out)" : "") + ": observed " +
+                          format("%.4g", rgb.x()) + " " + format("%.4g", rgb.y()) + " " + format("%.4g", rgb.z()) +
+                          ", |residual| " + format("%.4g", residual[i])});
+  }
+  std::string params;
+  const auto names = map.model().channels();
+  const auto values = map.parameters(pick.s, pick.t);
+  for (size_t i = 0; i < names.size() && i < values.size(); ++i)
+    params += (params.empty() ? "" : ", ") + names[i] + " " + format("%.4g", values[i]);
+  return "<figure class=\"texel\">" + polar_plot(points, {}, 260) + "<figcaption>Texel " + std::to_string(pick.s) +
+         "," + std::to_string(pick.t) + " (" + escape(pick.why) + "), " + std::to_string(o.size()) +
+         " observations; large points: held-out views.<br>" + colour_bar(0, worst, "|model - observed| (RGB norm)") +
+         "<br><small>" + escape(params) + "</small></figcaption></figure>\n";
+}
+
+std::string texels_section(const ReportData& d) {
+  if (d.map_files.empty())
+    return section("texels", "Texels on the hemisphere", missing("a fitted map (see Fitted maps)"));
+  // The first map that reads; its observation map at the same resolution.
+  std::string body;
+  for (const fs::path& file : d.map_files) {
+    auto map = fitting::ParameterMap::read(file);
+    if (!map) continue;
+    const fs::path obs_file = d.session->layout().obsmap_file(map->texels_s(), map->texels_t());
+    auto obs = fitting::ObsMapReader::open(obs_file);
+    if (!obs) {
+      return section("texels", "Texels on the hemisphere",
+                     missing("the observation map " + escape(obs_file.string()) + " (vdrig obsmap build " +
+                             escape(d.session->dir().string()) + " --res " + std::to_string(map->texels_s()) + "x" +
+                             std::to_string(map->texels_t()) + ")"));
+    }
+    std::vector<int> held;
+    if (auto h = held_out_views(map.value())) held = h.value();
+    std::sort(held.begin(), held.end());
+    std::vector<TexelPick> picks;
+    if (map->has("rms.R") && map->has("rms.G") && map->has("rms.B")) {
+      std::vector<std::pair<float, int>> by_rms;
+      for (int t = 0; t < map->texels_t(); ++t)
+        for (int s = 0; s < map->texels_s(); ++s)
+          by_rms.push_back(
+              {map->at("rms.R", s, t) + map->at("rms.G", s, t) + map->at("rms.B", s, t), t * map->texels_s() + s});
+      std::sort(by_rms.begin(), by_rms.end());
+      const int S = map->texels_s();
+      picks.push_back({by_rms.back().second % S, by_rms.back().second / S, "the worst fit residual"});
+      const auto& median = by_rms[by_rms.size() / 2];
+      picks.push_back({median.second % S, median.second / S, "the median fit residual"});
+    }
+    for (const auto& [s, t] : d.options->texels) {
+      if (s < 0 || t < 0 || s >= map->texels_s() || t >= map->texels_t())
+        body += missing("texel " + std::to_string(s) + "," + std::to_string(t) + ": outside the " +
+                        std::to_string(map->texels_s()) + "x" + std::to_string(map->texels_t()) + " map");
+      else
+        picks.push_back({s, t, "chosen"});
+    }
+    body = "<p>Map <code>" + escape(file.filename().string()) +
+           "</code>: each point an observation of the texel from the direction it was seen (as the coverage plot), "
+           "coloured by the model's residual there.</p>\n<div class=\"row\">" +
+           [&] {
+             std::string plots;
+             for (const TexelPick& p : picks) plots += texel_plot(map.value(), obs.value(), p, held);
+             return plots;
+           }() +
+           "</div>\n" + body;
+    return section("texels", "Texels on the hemisphere", body);
+  }
+  return section("texels", "Texels on the hemisphere", missing("a readable fitted map"));
+}
+
+std::string utc(fs::file_time_type t) {
+  const auto sys = std::chrono::file_clock::to_sys(t);
+  const std::time_t tt = std::chrono::system_clock::to_time_t(sys);
+  std::tm tm{};
+  gmtime_r(&tt, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &tm);
+  return buf;
+}
+
+std::string provenance_section(const ReportData& d, double build_s) {
+  const capture::Session& s = *d.session;
+  const capture::Manifest& m = s.manifest();
+  const capture::SessionLayout layout = s.layout();
+  std::string body = "<table>";
+  const auto row = [&](const std::string& k, const std::string& v) {
+    body += "<tr><th>" + escape(k) + "</th><td>" + v + "</td></tr>";
+  };
+  row("session", "<code>" + escape(fs::absolute(s.dir()).string()) + "</code>");
+  row("captured by", escape(m.software_version) + ", " + escape(m.created_utc));
+  row("report by", escape(capture::software_version()));
+  row("rig", "<code>" + escape(m.rig_config.value("backend", m.rig_config.dump().substr(0, 200))) + "</code>");
+  row("scheme, bracket", "<code>" + escape(m.scheme) + "</code>, <code>" + escape(m.bracket) + "</code>");
+  if (!m.extra.empty()) row("manifest extra", "<code>" + escape(m.extra.dump()) + "</code>");
+  body +=
+      "</table>\n<h3>Stage timings</h3><table><tr><th>stage</th><th>from</th><th>to / written</th>"
+      "<th>duration s</th></tr>";
+  int64_t first = 0, last = 0;
+  for (const auto& f : s.frames()) {
+    first = first == 0 ? f.timestamp_ns : std::min(first, f.timestamp_ns);
+    last = std::max(last, f.timestamp_ns);
+  }
+  body += "<tr><td>capture (journal timestamps)</td><td></td><td></td><td>" +
+          (s.frames().empty() ? std::string("no frames") : format("%.1f", (last - first) * 1e-9)) + "</td></tr>";
+  // Later stages record no timings of their own: their outputs' modification times bound them.
+  auto span_of = [&](const std::string& stage, const fs::path& dir, const std::string& ext) {
+    std::error_code ec;
+    std::optional<fs::file_time_type> lo, hi;
+    if (fs::is_directory(dir, ec))
+      for (const auto& e : fs::directory_iterator(dir, ec))
+        if (e.is_regular_file() && e.path().extension() == ext) {
+          const auto t = e.last_write_time(ec);
+          if (ec) continue;
+          lo = lo ? std::min(*lo, t) : t;
+          hi = hi ? std::max(*hi, t) : t;
+        }
+    if (!lo) {
+      body += "<tr><td>" + escape(stage) + "</td><td colspan=\"3\" class=\"missing\">not run</td></tr>";
+      return;
+    }
+    body += "<tr><td>" + escape(stage) + "</td><td>" + utc(*lo) + "</td><td>" + utc(*hi) + "</td><td>" +
+            format("%.1f", std::chrono::duration<double>(*hi - *lo).count()) + "</td></tr>";
+  };
+  span_of("HDR merge (hdr/*.exr written)", layout.hdr_dir(), ".exr");
+  span_of("observation maps (obsmap/*.vdobs written)", layout.obsmap_dir(), ".vdobs");
+  span_of("fits (maps/*.exr written)", layout.maps_dir(), ".exr");
+  span_of("comparison (compare.json written)", layout.compare_dir(), ".json");
+  body += "<tr><td>this report</td><td></td><td></td><td>" + format("%.2f", build_s) + "</td></tr></table>\n";
+  body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape(m.scheme) + "</code> (" +
+          escape(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
+  for (const fs::path& file : d.map_files) {
+    auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
+    const auto attribute = [&](const std::string& key) {
+      return image && image->string_attributes.count(key) ? image->string_attributes.at(key) : std::string();
+    };
+    body += "<li>" + escape(file.filename().string()) + ": ";
+    if (!attribute("vdrig.command").empty()) {
+      body += "<code>" + escape(attribute("vdrig.command")) + "</code></li>";
+      continue;
+    }
+    const std::string spec =
+        attribute("vdrig.model_spec").empty() ? file.stem().string() : attribute("vdrig.model_spec");
+    const std::string held = attribute("vdrig.held_out_views");
+    body += "not recorded; the map holds model <code>" + escape(spec) + "</code>" +
+            (held.empty() ? "" : ", held-out views " + escape(held)) + "</li>";
+  }
+  body += "</ul>\n";
+  return section("provenance", "Provenance: versions, timings, commands", body);
+}
+
+constexpr const char* kStyle = R"(
+body { font-family: sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
+h1 { font-size: 1.5em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; } h3 { margin-bottom: 0.3em; }
+table { border-collapse: collapse; font-size: 0.85em; } td, th { border: 1px solid #ddd; padding: 2px 6px; white-space: nowrap; }
+th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
+.scroll { max-height: 360px; overflow-y: auto; display: inline-block; }
+.missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }
+.row { display: flex; flex-wrap: wrap; gap: 1em; } figure { margin: 0.5em 0; } figcaption { font-size: 0.8em; }
+.texel { max-width: 280px; } img { image-rendering: pixelated; }
+nav a { margin-right: 1em; }
+)";
+
+}  // namespace
+
+Result<std::string> build_report_html(const fs::path& session_dir, const ReportOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto session = capture::Session::open(session_dir);
+  if (!session)
+    return make_error(session.error().code,
+                      "cannot read session " + session_dir.string() + ": " + session.error().message);
+  ReportData data;
+  data.session = &session.value();
+  data.options = &options;
+  std::error_code ec;
+  if (fs::is_directory(session->layout().maps_dir(), ec))
+    for (const auto& e : fs::directory_iterator(session->layout().maps_dir(), ec))
+      if (e.is_regular_file() && e.path().extension() == ".exr") data.map_files.push_back(e.path());
+  std::sort(data.map_files.begin(), data.map_files.end());
+
+  auto compare = compare_section(data);
+  if (!compare) return compare.error();
+  std::string sections = coverage_section(data) + views_section(data) + calibration_section(data) + maps_section(data) +
+                         compare.value() + texels_section(data);
+  const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  sections += provenance_section(data, build_s);
+  const std::string title = "vdrig session report: " + fs::absolute(session_dir).filename().string();
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + escape(title) +
+         "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n<h1>" + escape(title) +
+         "</h1>\n<nav><a href=\"#coverage\">coverage</a><a href=\"#views\">views</a><a "
+         "href=\"#calibration\">calibration</a><a href=\"#maps\">maps</a><a href=\"#compare\">compare</a><a "
+         "href=\"#texels\">texels</a><a href=\"#provenance\">provenance</a></nav>\n" +
+         sections + "</body>\n</html>\n";
+}
+
+Status write_report(const fs::path& session_dir, const fs::path& out, const ReportOptions& options) {
+  auto html = build_report_html(session_dir, options);
+  if (!html) return html.error();
+  return write_file_atomic(out, html.value());
+}
+
+}  // namespace vdrig::pipeline
