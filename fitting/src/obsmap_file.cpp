@@ -517,6 +517,28 @@ Status ObsMapWriter::add_view(int view, const ObservationMap& map) {
   return m.spill_view(view);
 }
 
+Status ObsMapWriter::add_shared_direction_view(int view, const cv::Mat& radiance_rgb, const Eigen::Vector3f& direction,
+                                               const cv::Mat& clip_mask) {
+  VDRIG_TRY(impl_->begin_view(view));
+  Impl& m = *impl_;
+  const ObservationMapSpec& spec = m.spec;
+  if (radiance_rgb.type() != CV_32FC3 || radiance_rgb.cols != spec.texels_s || radiance_rgb.rows != spec.texels_t)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "view " + std::to_string(view) + ": radiance must be CV_32FC3 of the map's texels");
+  if (!clip_mask.empty() && (clip_mask.type() != CV_8UC1 || clip_mask.size() != radiance_rgb.size()))
+    return make_error(ErrorCode::kInvalidArgument,
+                      "view " + std::to_string(view) + ": clip mask must be CV_8UC1 of the image's size");
+  for (int t = 0; t < spec.texels_t; ++t) {
+    const size_t row = static_cast<size_t>(t) * spec.texels_s;
+    std::memcpy(&m.rgb[3 * row], radiance_rgb.ptr<float>(t), 12 * static_cast<size_t>(spec.texels_s));
+    for (int s = 0; s < spec.texels_s; ++s) {
+      std::memcpy(&m.dir[3 * (row + s)], direction.data(), 12);
+      m.flags[row + s] = !clip_mask.empty() && clip_mask.at<uint8_t>(t, s) ? kObsClipped : kObsValid;
+    }
+  }
+  return m.spill_view(view);
+}
+
 Status ObsMapWriter::finish() { return impl_->finish(); }
 
 uint64_t obsfile_hash64(const void* data, size_t n) { return hash64(data, n); }
