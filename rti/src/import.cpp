@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <future>
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/core/file_read.hpp"
@@ -140,10 +141,18 @@ Result<ImportSummary> import_stack(const fs::path& stack, const fs::path& out, c
   ImportSummary summary{lp.value(), n, 0, 0};
   std::optional<fitting::ObsMapWriter> writer;
   cv::Size first_size;
+  // Decoding (the larger part of an image's time) of image v + 1 overlaps the spill of image v.
+  auto decode = [&](int v) {
+    return std::async(std::launch::async, [&lights, &options, v] {
+      return read_linear_image((*lights)[static_cast<size_t>(v)].image, options.linearisation, std::nullopt);
+    });
+  };
+  std::future<Result<cv::Mat>> next = decode(0);
   for (int v = 0; v < n; ++v) {
-    const LightPosition& light = (*lights)[v];
+    const LightPosition& light = (*lights)[static_cast<size_t>(v)];
     // Size check on the uncropped image: the crop is in the frame every image must share.
-    auto image = read_linear_image(light.image, options.linearisation, std::nullopt);
+    auto image = next.get();
+    if (v + 1 < n) next = decode(v + 1);
     if (!image) return image.error();
     if (v == 0) first_size = image->size();
     if (image->size() != first_size)

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
@@ -72,6 +73,10 @@ inline SyntheticStack write_synthetic_stack(const std::filesystem::path& folder,
     lp += line;
   }
   FILE* f = std::fopen(stack.lp_file.c_str(), "w");
+  if (!f) {
+    std::fprintf(stderr, "cannot write %s\n", stack.lp_file.c_str());
+    std::abort();
+  }
   std::fputs(lp.c_str(), f);
   std::fclose(f);
   return stack;
