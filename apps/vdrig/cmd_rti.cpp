@@ -30,6 +30,7 @@ Result<cv::Rect> parse_crop(const std::string& text) {
 
 struct ImportArgs {
   std::string stack, out, crop, response = "sRGB", compression = "zstd";
+  int tile = 16;
 };
 
 Status run_import(const ImportArgs& a) {
@@ -124,6 +125,7 @@ const CommandRegistrar kRti([](CLI::App& root) {
     cmd->add_option("--compression", a->compression, "observation map: none | zstd")
         ->check(CLI::IsMember({"none", "zstd"}))
         ->capture_default_str();
+    cmd->add_option("--tile", a->tile, "observation map: texels per tile side")->capture_default_str();
     cmd->callback([a] { finish(run_import(*a)); });
   }
   {

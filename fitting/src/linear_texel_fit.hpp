@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <functional>
 #include <vector>
 
@@ -37,16 +38,34 @@ class SharedDirectionLinearFit {
   void quality(const Eigen::Ref<const Eigen::MatrixXd>& values, const Eigen::Ref<const Eigen::MatrixXd>& coeffs,
                FitQuality* q, Vec3d* loo_rms) const {
     const Eigen::MatrixXd predicted = basis_matrix_ * coeffs;
+    residual_quality(values, predicted, leave_one_out(values, predicted), q, loo_rms);
+  }
+
+  /// The leave-one-out predictions of a fit whose predictions on the current direction set are `predicted`:
+  /// f_j + (predicted_j - f_j) / (1 - H_jj) per sample j.
+  Eigen::MatrixXd leave_one_out(const Eigen::Ref<const Eigen::MatrixXd>& values,
+                                const Eigen::Ref<const Eigen::MatrixXd>& predicted) const {
+    Eigen::MatrixXd loo = predicted;
+    for (Eigen::Index j = 0; j < values.rows(); ++j) {
+      const double denom = 1.0 - hat_diagonal_[j];
+      if (denom > 1e-9) loo.row(j) = values.row(j) + (predicted.row(j) - values.row(j)) / denom;
+    }
+    return loo;
+  }
+
+  /// RMS and mean percentage error of `predicted` against `values` (N x C, C >= 3), as measure_quality, and the RMS
+  /// of `loo_predicted` against them.
+  static void residual_quality(const Eigen::Ref<const Eigen::MatrixXd>& values,
+                               const Eigen::Ref<const Eigen::MatrixXd>& predicted,
+                               const Eigen::Ref<const Eigen::MatrixXd>& loo_predicted, FitQuality* q, Vec3d* loo_rms) {
     const auto n = values.rows();
     q->samples = static_cast<int>(n);
-    for (int c = 0; c < std::min<int>(3, static_cast<int>(values.cols())); ++c) {
+    for (int c = 0; c < 3; ++c) {
       double sq = 0, loo = 0, pct = 0;
       int pct_n = 0;
       for (Eigen::Index j = 0; j < n; ++j) {
-        const double o = values(j, c), r = predicted(j, c) - o;
+        const double o = values(j, c), r = predicted(j, c) - o, rl = loo_predicted(j, c) - o;
         sq += r * r;
-        const double denom = 1.0 - hat_diagonal_[j];
-        const double rl = denom > 1e-9 ? r / denom : r;
         loo += rl * rl;
         if (o > 0) {
           pct += std::abs(r) / o * 100.0;

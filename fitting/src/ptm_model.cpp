@@ -50,32 +50,12 @@ class PtmTexelFitter : public TexelFitter {
       fit_.quality(rgb_, Eigen::Map<const Eigen::MatrixXd>(p.data(), kTerms, 3), q, loo_rms);
       return true;
     }
-    // radiance_c = (Y basis a) chroma_c: the residuals and LOO residuals of the luminance fit, scaled per channel.
+    // radiance_c = (Y basis a) chroma_c: the luminance fit's predictions and LOO predictions times the chromaticity.
     const Eigen::Map<const Eigen::VectorXd> a(p.data(), kTerms);
     const Eigen::VectorXd y = fit_.basis_matrix() * a;
-    const Eigen::VectorXd& h = fit_.hat_diagonal();
-    const Eigen::VectorXd luminance = rgb_.rowwise().mean();
-    const auto n = rgb_.rows();
-    q->samples = static_cast<int>(n);
-    for (int c = 0; c < 3; ++c) {
-      double sq = 0, loo = 0, pct = 0;
-      int pct_n = 0;
-      for (Eigen::Index j = 0; j < n; ++j) {
-        const double o = rgb_(j, c), r = y[j] * p[kTerms + c] - o;
-        const double denom = 1.0 - h[j];
-        const double y_loo = denom > 1e-9 ? luminance[j] + (y[j] - luminance[j]) / denom : y[j];
-        const double rl = y_loo * p[kTerms + c] - o;
-        sq += r * r;
-        loo += rl * rl;
-        if (o > 0) {
-          pct += std::abs(r) / o * 100.0;
-          ++pct_n;
-        }
-      }
-      q->rms[c] = n ? std::sqrt(sq / static_cast<double>(n)) : 0.0;
-      q->mean_percent[c] = pct_n ? pct / pct_n : 0.0;
-      (*loo_rms)[c] = n ? std::sqrt(loo / static_cast<double>(n)) : 0.0;
-    }
+    const Eigen::VectorXd y_loo = fit_.leave_one_out(rgb_.rowwise().mean(), y);
+    const Eigen::RowVector3d chroma(p[kTerms], p[kTerms + 1], p[kTerms + 2]);
+    SharedDirectionLinearFit::residual_quality(rgb_, y * chroma, y_loo * chroma, q, loo_rms);
     return true;
   }
 

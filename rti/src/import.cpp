@@ -53,6 +53,15 @@ Result<cv::Mat> read_exr_rgb(const fs::path& path) {
   return rgb;
 }
 
+/// kInvalidArgument unless `crop` is a non-empty rectangle inside an image of `size`; `what` names the images.
+Status check_crop(const cv::Rect& crop, const cv::Size& size, const std::string& what) {
+  if ((crop & cv::Rect(0, 0, size.width, size.height)) == crop && !crop.empty()) return Status::ok();
+  return make_error(ErrorCode::kInvalidArgument, "crop " + std::to_string(crop.x) + "," + std::to_string(crop.y) + "," +
+                                                     std::to_string(crop.width) + "," + std::to_string(crop.height) +
+                                                     " is not inside the " + std::to_string(size.width) + "x" +
+                                                     std::to_string(size.height) + " " + what);
+}
+
 }  // namespace
 
 Result<Linearisation> Linearisation::parse(const std::string& text) {
@@ -96,11 +105,7 @@ Result<cv::Mat> read_linear_image(const fs::path& path, const Linearisation& lin
       return make_error(ErrorCode::kCorrupt, path.string() + ": " + std::to_string(image.channels()) + " channels");
   }
   if (crop) {
-    if ((*crop & cv::Rect(0, 0, image.cols, image.rows)) != *crop || crop->empty())
-      return make_error(ErrorCode::kInvalidArgument,
-                        path.string() + ": crop " + std::to_string(crop->x) + "," + std::to_string(crop->y) + "," +
-                            std::to_string(crop->width) + "," + std::to_string(crop->height) + " is not inside the " +
-                            std::to_string(image.cols) + "x" + std::to_string(image.rows) + " image");
+    VDRIG_TRY(check_crop(*crop, image.size(), "image " + path.string()));
     image = image(*crop);
   }
   const int depth = image.depth();
@@ -162,12 +167,7 @@ Result<ImportSummary> import_stack(const fs::path& stack, const fs::path& out, c
                             std::to_string(first_size.width) + "x" + std::to_string(first_size.height));
     cv::Mat rgb = image.value();
     if (options.crop) {
-      if ((*options.crop & cv::Rect(0, 0, rgb.cols, rgb.rows)) != *options.crop || options.crop->empty())
-        return make_error(ErrorCode::kInvalidArgument,
-                          "crop " + std::to_string(options.crop->x) + "," + std::to_string(options.crop->y) + "," +
-                              std::to_string(options.crop->width) + "," + std::to_string(options.crop->height) +
-                              " is not inside the " + std::to_string(rgb.cols) + "x" + std::to_string(rgb.rows) +
-                              " images");
+      VDRIG_TRY(check_crop(*options.crop, rgb.size(), "images"));
       rgb = rgb(*options.crop);
     }
     cv::flip(rgb, rgb, 0);  // texel rows grow with y (up in the image)

@@ -56,6 +56,13 @@ std::vector<double> rtiviewer_hsh(int terms, const Vec3d& l) {
   return w;
 }
 
+/// The scale and bias lines of a PTM header.
+void ptm_scale_bias(const std::vector<std::string>& header, double scale[6], int bias[6]) {
+  std::istringstream s(header[4]), b(header[5]);
+  for (int k = 0; k < 6; ++k) s >> scale[k];
+  for (int k = 0; k < 6; ++k) b >> bias[k];
+}
+
 std::vector<double> ptm_terms(const Vec3d& l) {
   return {l.x() * l.x(), l.y() * l.y(), l.x() * l.y(), l.x(), l.y(), 1.0};
 }
@@ -128,8 +135,7 @@ TEST_F(RtiExport, PtmRgbReadBackByTheFormatDescription) {
   ASSERT_EQ(std::stoi(h[3]), kT);
   double scale[6];
   int bias[6];
-  std::istringstream(h[4]) >> scale[0] >> scale[1] >> scale[2] >> scale[3] >> scale[4] >> scale[5];
-  std::istringstream(h[5]) >> bias[0] >> bias[1] >> bias[2] >> bias[3] >> bias[4] >> bias[5];
+  ptm_scale_bias(h, scale, bias);
   const size_t n = static_cast<size_t>(kS) * kT;
   ASSERT_EQ(bytes.size() - at, 18 * n);  // 3 colour blocks of 6 bytes per pixel
   const auto* data = reinterpret_cast<const uint8_t*>(bytes.data() + at);
@@ -157,8 +163,7 @@ TEST_F(RtiExport, PtmLrgbReadBackByTheFormatDescription) {
   ASSERT_EQ(h[1], "PTM_FORMAT_LRGB");
   double scale[6];
   int bias[6];
-  std::istringstream(h[4]) >> scale[0] >> scale[1] >> scale[2] >> scale[3] >> scale[4] >> scale[5];
-  std::istringstream(h[5]) >> bias[0] >> bias[1] >> bias[2] >> bias[3] >> bias[4] >> bias[5];
+  ptm_scale_bias(h, scale, bias);
   const size_t n = static_cast<size_t>(kS) * kT;
   ASSERT_EQ(bytes.size() - at, 9 * n);  // 6 luminance bytes per pixel, then 3 colour bytes per pixel
   const auto* data = reinterpret_cast<const uint8_t*>(bytes.data() + at);
