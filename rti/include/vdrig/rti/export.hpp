@@ -15,6 +15,7 @@
 // (half a step inside the range; .ptm's integer bias can move the ends by half a step).
 #pragma once
 
+#include <Eigen/Core>
 #include <filesystem>
 #include <string>
 #include <vector>
