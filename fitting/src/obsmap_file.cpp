@@ -198,8 +198,11 @@ bool ObsFileOptions::is_valid(std::string* why) const {
     if (why) *why = "unknown compression";
     return false;
   }
-  if (compression == ObsCompression::kZstd && (zstd_level < 1 || zstd_level > ZSTD_maxCLevel())) {
-    if (why) *why = "zstd level must be in [1, " + std::to_string(ZSTD_maxCLevel()) + "]";
+  if (compression == ObsCompression::kZstd &&
+      (zstd_level < kMinZstdLevel || zstd_level == 0 || zstd_level > ZSTD_maxCLevel())) {
+    if (why)
+      *why = "zstd level must be in [" + std::to_string(kMinZstdLevel) + ", -1] or [1, " +
+             std::to_string(ZSTD_maxCLevel()) + "]";
     return false;
   }
   return true;
@@ -297,7 +300,8 @@ struct ObsMapWriter::Impl {
       const std::vector<char>* stored = &raw;
       if (opt.compression == ObsCompression::kZstd) {
         z.resize(ZSTD_compressBound(raw.size()));
-        const size_t zn = ZSTD_compressCCtx(cctx.get(), z.data(), z.size(), raw.data(), raw.size(), kSpillZstdLevel);
+        const size_t zn = ZSTD_compressCCtx(cctx.get(), z.data(), z.size(), raw.data(), raw.size(),
+                                            std::min(kSpillZstdLevel, opt.zstd_level));
         VDRIG_CHECK(!ZSTD_isError(zn), std::string("zstd: ") + ZSTD_getErrorName(zn));
         z.resize(zn);
         stored = &z;

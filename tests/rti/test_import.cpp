@@ -19,7 +19,10 @@ ImportOptions linear_options() {
 TEST(RtiImport, ObservationsArePixelsAndDirectionsAreTheLights) {
   test::TempDir dir("rti_import_values");
   const auto stack = test::write_synthetic_stack(dir.path(), 12, 8, 10);
-  auto summary = import_stack(dir.path(), dir / "map.vdobs", linear_options());
+  ImportOptions options = linear_options();
+  options.file.tile_size = 5;    // edge tiles
+  options.file.zstd_level = -5;  // zstd's fast levels, as vdrig rti import uses
+  auto summary = import_stack(dir.path(), dir / "map.vdobs", options);
   ASSERT_TRUE(summary) << summary.error().describe();
   EXPECT_EQ(summary->images, 10);
   auto reader = fitting::ObsMapReader::open(dir / "map.vdobs");

@@ -29,7 +29,9 @@ enum class ObsCompression : uint32_t { kNone = 0, kZstd = 1 };
 struct ObsFileOptions {
   int tile_size = 32;  // texels per tile side (edge tiles are smaller)
   ObsCompression compression = ObsCompression::kZstd;
+  /// 1..max, or zstd's fast levels kMinZstdLevel..-1 (faster, larger; also used for the spill when below its 1).
   int zstd_level = 3;
+  static constexpr int kMinZstdLevel = -50;
   /// Folder of the anonymous spill file; empty: the output file's folder (same disk as the result).
   std::filesystem::path spill_dir;
   /// Test/fault-injection hook called before every file write with the file and byte count; a failed Status is
