@@ -30,14 +30,14 @@ class SharedDirectionLinearFit {
   /// Coefficients K x C of `values` (N x C, row j = sample j of obs) on obs's directions.
   Eigen::MatrixXd fit(const TexelObservations& obs, const Eigen::Ref<const Eigen::MatrixXd>& values) {
     prepare(obs);
-    return operator_matrix_ * values;
+    return columnwise_product(operator_matrix_, values);
   }
 
   /// Residual statistics of `coeffs` (from fit() on the same obs) per channel: RMS and mean percentage error as
   /// measure_quality, and the leave-one-out RMS. Channels beyond the third are ignored.
   void quality(const Eigen::Ref<const Eigen::MatrixXd>& values, const Eigen::Ref<const Eigen::MatrixXd>& coeffs,
                FitQuality* q, Vec3d* loo_rms) const {
-    const Eigen::MatrixXd predicted = basis_matrix_ * coeffs;
+    const Eigen::MatrixXd predicted = columnwise_product(basis_matrix_, coeffs);
     residual_quality(values, predicted, leave_one_out(values, predicted), q, loo_rms);
   }
 
@@ -84,6 +84,14 @@ class SharedDirectionLinearFit {
   const Eigen::VectorXd& hat_diagonal() const { return hat_diagonal_; }
 
  private:
+  /// a * b one column of b at a time: matrix-vector products, which unlike Eigen's matrix-matrix product do not
+  /// repack `a` on every call (with 3 columns the packing cost as much as the arithmetic).
+  static Eigen::MatrixXd columnwise_product(const Eigen::MatrixXd& a, const Eigen::Ref<const Eigen::MatrixXd>& b) {
+    Eigen::MatrixXd out(a.rows(), b.cols());
+    for (Eigen::Index c = 0; c < b.cols(); ++c) out.col(c).noalias() = a * b.col(c);
+    return out;
+  }
+
   void prepare(const TexelObservations& obs) {
     if (obs.direction == directions_ && basis_matrix_.rows() == static_cast<Eigen::Index>(obs.size())) return;
     directions_ = obs.direction;
