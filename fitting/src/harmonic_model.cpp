@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "linear_texel_fit.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
@@ -40,22 +41,41 @@ std::string glsl_float(double v) {
 class HarmonicTexelFitter : public TexelFitter {
  public:
   HarmonicTexelFitter(HarmonicModel::Basis basis, const ShFitOptions& sh, const HshFitOptions& hsh)
-      : hsh_(hsh), sh_(basis == HarmonicModel::Basis::kSh ? std::make_unique<ShTexelFitter>(sh) : nullptr) {}
+      : sh_(basis == HarmonicModel::Basis::kSh ? std::make_unique<ShTexelFitter>(sh) : nullptr),
+        hsh_(hsh_basis_function(hsh.bands),
+             [hsh](const std::vector<Vec3d>& dirs) { return make_hsh_fit_operator(hsh, dirs).matrix(); }) {}
 
   std::vector<double> fit(const TexelObservations& obs) override {
-    std::vector<Vec3d> dirs(obs.size());
-    Eigen::MatrixXd values(obs.size(), 3);
-    for (size_t i = 0; i < obs.size(); ++i) {
-      dirs[i] = obs.direction[i].cast<double>();
-      values.row(static_cast<Eigen::Index>(i)) = obs.radiance[i].cast<double>().transpose();
+    values_.resize(static_cast<Eigen::Index>(obs.size()), 3);
+    for (size_t i = 0; i < obs.size(); ++i)
+      values_.row(static_cast<Eigen::Index>(i)) = obs.radiance[i].cast<double>().transpose();
+    Eigen::MatrixXd coeffs;
+    if (sh_) {
+      std::vector<Vec3d> dirs(obs.size());
+      for (size_t i = 0; i < obs.size(); ++i) dirs[i] = obs.direction[i].cast<double>();
+      coeffs = sh_->fit(dirs, values_);
+    } else {
+      coeffs = hsh_.fit(obs, values_);  // one operator for every texel with the same directions
     }
-    const Eigen::MatrixXd coeffs = sh_ ? sh_->fit(dirs, values) : fit_hsh(hsh_, dirs, values);
     return std::vector<double>(coeffs.data(), coeffs.data() + coeffs.size());  // column-major: channel by channel
   }
 
+  bool quality(const TexelObservations& /*obs*/, std::span<const double> parameters, FitQuality* q,
+               Vec3d* loo_rms) override {
+    if (sh_) return false;
+    const auto k = static_cast<Eigen::Index>(parameters.size() / 3);
+    hsh_.quality(values_, Eigen::Map<const Eigen::MatrixXd>(parameters.data(), k, 3), q, loo_rms);
+    return true;
+  }
+
  private:
-  HshFitOptions hsh_;
+  static SharedDirectionLinearFit::Basis hsh_basis_function(int bands) {
+    return [bands](const std::vector<Vec3d>& dirs) { return hsh_basis_matrix(bands, dirs); };
+  }
+
   std::unique_ptr<ShTexelFitter> sh_;  // holds the Gram factorisation and work space
+  SharedDirectionLinearFit hsh_;
+  Eigen::MatrixXd values_;  // the last texel's observations, N x 3
 };
 
 const HarmonicModel& harmonic_model_of(const ParameterMap& map) {

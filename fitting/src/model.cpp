@@ -4,12 +4,14 @@
 #include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/fitting/ptm_model.hpp"
 
 namespace vdrig::fitting {
 
 void register_builtin_models(ModelRegistry& registry) {
   register_phong_model(registry);
   register_harmonic_models(registry);
+  register_ptm_model(registry);
 }
 
 void ReflectanceModel::write_attributes(std::map<std::string, double>&) const {}
@@ -32,6 +34,9 @@ Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContex
   const bool holding_out = !options.held_out.empty();
   ParameterMap map(model, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
   if (holding_out) map.set_holdout_rms(0, 0, Vec3d::Zero());  // channels before threads
+  const bool loo = model->reports_leave_one_out();
+  if (loo)
+    for (const char* c : kLeaveOneOutChannels) map.add_channel(c);
   // One fitter per worker, made on first use.
   std::vector<std::unique_ptr<TexelFitter>> fitters(static_cast<size_t>(context.workers));
   auto fit_texel = [&](int worker, int s, int t, const TexelObservations& texel, const TexelObservations& held) {
@@ -43,7 +48,10 @@ Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContex
       if (!fitter) fitter = make_fitter();
       const std::vector<double> p = fitter->fit(texel);
       map.set_parameters(s, t, p);
-      q = measure_quality(*model, p, texel);
+      Vec3d loo_rms = Vec3d::Zero();
+      if (!fitter->quality(texel, p, &q, &loo_rms)) q = measure_quality(*model, p, texel);
+      if (loo)
+        for (int c = 0; c < 3; ++c) map.at(kLeaveOneOutChannels[c], s, t) = static_cast<float>(loo_rms[c]);
       if (held.size()) hq = measure_quality(*model, p, held);
     }
     map.set_quality(s, t, q);

@@ -198,8 +198,11 @@ bool ObsFileOptions::is_valid(std::string* why) const {
     if (why) *why = "unknown compression";
     return false;
   }
-  if (compression == ObsCompression::kZstd && (zstd_level < 1 || zstd_level > ZSTD_maxCLevel())) {
-    if (why) *why = "zstd level must be in [1, " + std::to_string(ZSTD_maxCLevel()) + "]";
+  if (compression == ObsCompression::kZstd &&
+      (zstd_level < kMinZstdLevel || zstd_level == 0 || zstd_level > ZSTD_maxCLevel())) {
+    if (why)
+      *why = "zstd level must be in [" + std::to_string(kMinZstdLevel) + ", -1] or [1, " +
+             std::to_string(ZSTD_maxCLevel()) + "]";
     return false;
   }
   return true;
@@ -297,7 +300,8 @@ struct ObsMapWriter::Impl {
       const std::vector<char>* stored = &raw;
       if (opt.compression == ObsCompression::kZstd) {
         z.resize(ZSTD_compressBound(raw.size()));
-        const size_t zn = ZSTD_compressCCtx(cctx.get(), z.data(), z.size(), raw.data(), raw.size(), kSpillZstdLevel);
+        const size_t zn = ZSTD_compressCCtx(cctx.get(), z.data(), z.size(), raw.data(), raw.size(),
+                                            std::min(kSpillZstdLevel, opt.zstd_level));
         VDRIG_CHECK(!ZSTD_isError(zn), std::string("zstd: ") + ZSTD_getErrorName(zn));
         z.resize(zn);
         stored = &z;
@@ -514,6 +518,28 @@ Status ObsMapWriter::add_view(int view, const ObservationMap& map) {
       std::memcpy(&m.rgb[3 * i], rgb.data(), 12);
       std::memcpy(&m.dir[3 * i], dir.data(), 12);
     }
+  return m.spill_view(view);
+}
+
+Status ObsMapWriter::add_shared_direction_view(int view, const cv::Mat& radiance_rgb, const Eigen::Vector3f& direction,
+                                               const cv::Mat& clip_mask) {
+  VDRIG_TRY(impl_->begin_view(view));
+  Impl& m = *impl_;
+  const ObservationMapSpec& spec = m.spec;
+  if (radiance_rgb.type() != CV_32FC3 || radiance_rgb.cols != spec.texels_s || radiance_rgb.rows != spec.texels_t)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "view " + std::to_string(view) + ": radiance must be CV_32FC3 of the map's texels");
+  if (!clip_mask.empty() && (clip_mask.type() != CV_8UC1 || clip_mask.size() != radiance_rgb.size()))
+    return make_error(ErrorCode::kInvalidArgument,
+                      "view " + std::to_string(view) + ": clip mask must be CV_8UC1 of the image's size");
+  for (int t = 0; t < spec.texels_t; ++t) {
+    const size_t row = static_cast<size_t>(t) * spec.texels_s;
+    std::memcpy(&m.rgb[3 * row], radiance_rgb.ptr<float>(t), 12 * static_cast<size_t>(spec.texels_s));
+    for (int s = 0; s < spec.texels_s; ++s) {
+      std::memcpy(&m.dir[3 * (row + s)], direction.data(), 12);
+      m.flags[row + s] = !clip_mask.empty() && clip_mask.at<uint8_t>(t, s) ? kObsClipped : kObsValid;
+    }
+  }
   return m.spill_view(view);
 }
 

@@ -23,6 +23,8 @@ const std::vector<std::string> kNames = {
     "phong:auto",
     "phong:2:per-lobe-m",
     "phong:auto:per-lobe-m",
+    "ptm:rgb",
+    "ptm:lrgb",
     "sh-zh:6",
     "sh-zh:1",
     "sh-lsop:6",
@@ -41,7 +43,7 @@ TEST(ModelRegistry, EveryRegisteredFamilyIsCoveredHere) {
   for (const auto& n : kNames) covered.insert(family_of(n));
   const auto families = model_registry().families();
   EXPECT_EQ(std::set<std::string>(families.begin(), families.end()), covered);
-  EXPECT_EQ(families.size(), 5u);
+  EXPECT_EQ(families.size(), 6u);
 }
 
 TEST(ModelRegistry, NamesRoundTrip) {

@@ -1,4 +1,4 @@
-// The viewer's generated GLSL for SH and HSH maps against ParameterMap::evaluate (fitting/sh.cpp, hsh.cpp): a
+// The viewer's generated GLSL for SH, HSH and PTM maps against ParameterMap::evaluate (fitting/sh.cpp, hsh.cpp): a
 // headless render of a map with different coefficients in every texel must match, pixel by pixel, the same
 // bilinear blend of per-texel radiance computed on the CPU. Needs an OpenGL 3.3 context (xvfb-run in CI).
 #include <gtest/gtest.h>
@@ -21,6 +21,20 @@ constexpr double kW = 600.0, kH = 500.0;
 fitting::ParameterMap make_map(const std::string& spec) {
   const auto model = fitting::parse_model(spec).value();
   fitting::ParameterMap map(model, kS, kT, kW, kH);
+  if (!dynamic_cast<const fitting::HarmonicModel*>(model.get())) {
+    // PTM: a constant term (ptm.*.5) well above the varying ones, chromaticities near 1.
+    const std::vector<std::string> channels = model->channels();
+    for (int t = 0; t < kT; ++t)
+      for (int s = 0; s < kS; ++s) {
+        std::vector<double> p(channels.size());
+        for (size_t i = 0; i < p.size(); ++i)
+          p[i] = channels[i].ends_with(".5")          ? 4.0 + 0.1 * static_cast<double>(i)
+                 : channels[i].starts_with("chroma.") ? 0.8 + 0.1 * static_cast<double>(i % 3)
+                                                      : 0.3 * std::sin(1.3 * static_cast<double>(i) + s - 2.1 * t);
+        map.set_parameters(s, t, p);
+      }
+    return map;
+  }
   const int k = dynamic_cast<const fitting::HarmonicModel&>(*model).coefficients_per_channel();
   for (int t = 0; t < kT; ++t)
     for (int s = 0; s < kS; ++s) {
@@ -83,6 +97,10 @@ void check_render(const std::string& spec) {
 
 TEST(RenderModels, ShMapMatchesEvaluate) { check_render("sh-ls:5"); }
 TEST(RenderModels, HshMapMatchesEvaluate) { check_render("hsh:5"); }
+TEST(RenderModels, PtmMapsMatchEvaluate) {
+  check_render("ptm:rgb");
+  check_render("ptm:lrgb");
+}
 TEST(RenderModels, TenBandShCompiles) { check_render("sh-lsop:10"); }
 
 }  // namespace

@@ -32,6 +32,8 @@ class HarmonicModel : public ReflectanceModel {
   Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
   std::string glsl(const std::function<std::string(int parameter)>& parameter) const override;
   bool linear_in_shared_directions() const override { return true; }
+  /// HSH maps carry loo.R/G/B (their texels share one least-squares operator per direction set).
+  bool reports_leave_one_out() const override { return basis_ == Basis::kHsh; }
   Result<LinearFitOperator> fit_operator(const std::vector<Vec3d>& directions,
                                          const MapFitOptions& options) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;

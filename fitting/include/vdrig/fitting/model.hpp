@@ -23,6 +23,7 @@ namespace vdrig::fitting {
 
 class ParameterMap;
 class LinearFitOperator;
+struct FitQuality;
 struct MapFitOptions;
 struct MapFitContext;
 
@@ -73,6 +74,9 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// kUnsupported for models that are not linear_in_shared_directions(), kInvalidArgument for invalid options.
   virtual Result<LinearFitOperator> fit_operator(const std::vector<Vec3d>& directions,
                                                  const MapFitOptions& options) const;
+  /// True when the map fit also fills the leave-one-out channels loo.R/G/B: the RMS over a texel's samples of the
+  /// residual at each sample of the fit made without it (closed form from the hat matrix for linear fits).
+  virtual bool reports_leave_one_out() const { return false; }
 
   /// Fits every texel of the context's observation map into a parameter map of this model (or of the model the
   /// fit resolves it to, e.g. phong:auto with its lobe count). Checks the options that concern this model
@@ -88,7 +92,17 @@ class TexelFitter {
   virtual ~TexelFitter() = default;
   /// The parameters (parameter_count() of them) fitted to obs (at least MapFitOptions::min_observations of them).
   virtual std::vector<double> fit(const TexelObservations& obs) = 0;
+  /// Optional: the quality of `parameters`, just returned by fit() for the same `obs`, computed more cheaply than
+  /// by evaluating the model at every observation (a linear fit keeps its basis matrix), with the leave-one-out RMS
+  /// per channel. False (the default): fit_map_per_texel measures the quality itself and reports no LOO.
+  virtual bool quality(const TexelObservations& /*obs*/, std::span<const double> /*parameters*/, FitQuality* /*q*/,
+                       Vec3d* /*loo_rms*/) {
+    return false;
+  }
 };
+
+/// The leave-one-out channels a model with reports_leave_one_out() adds to its maps.
+inline const char* const kLeaveOneOutChannels[3] = {"loo.R", "loo.G", "loo.B"};
 
 /// A texel's observations as handed to a model's map fit: those to fit and the held-out ones.
 using TexelVisitor =
@@ -107,7 +121,8 @@ struct MapFitContext {
 };
 
 /// fit_map for a model fitted texel by texel in one sweep: make_fitter() is called once per worker; texels with
-/// fewer than min_observations observations get zero parameters and n = their count. Rejects options that need a
+/// fewer than min_observations observations get zero parameters and n = their count. Models that
+/// reports_leave_one_out() get the loo.R/G/B channels from their fitter's quality(). Rejects options that need a
 /// model's own second pass (shared_lights).
 Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContext& context,
                                        const std::function<std::unique_ptr<TexelFitter>()>& make_fitter);
@@ -136,7 +151,7 @@ class ModelRegistry {
   std::vector<Entry> entries_;
 };
 
-/// Adds the models vdrig ships (phong, sh-zh, sh-lsop, sh-ls, hsh) to `registry`.
+/// Adds the models vdrig ships (phong, sh-zh, sh-lsop, sh-ls, hsh, ptm) to `registry`.
 void register_builtin_models(ModelRegistry& registry);
 
 /// The process-wide registry holding the built-in models (built on first use; thread-safe).

@@ -29,7 +29,9 @@ enum class ObsCompression : uint32_t { kNone = 0, kZstd = 1 };
 struct ObsFileOptions {
   int tile_size = 32;  // texels per tile side (edge tiles are smaller)
   ObsCompression compression = ObsCompression::kZstd;
+  /// 1..max, or zstd's fast levels kMinZstdLevel..-1 (faster, larger; also used for the spill when below its 1).
   int zstd_level = 3;
+  static constexpr int kMinZstdLevel = -50;
   /// Folder of the anonymous spill file; empty: the output file's folder (same disk as the result).
   std::filesystem::path spill_dir;
   /// Test/fault-injection hook called before every file write with the file and byte count; a failed Status is
@@ -95,6 +97,12 @@ class ObsMapWriter {
   Status add_view(int view, const ViewInput& input);
   /// Copies view `view` of an in-memory map (same spec and view count).
   Status add_view(int view, const ObservationMap& map);
+  /// A view in which every texel was seen from the same direction (RTI: a fixed camera and one light direction per
+  /// photograph, the light taking the place of the camera): texel (s, t) gets pixel (s, t) of `radiance_rgb`
+  /// (CV_32FC3, R G B, texels_t rows x texels_s columns), `direction` (unit) and flag kObsValid, or kObsClipped
+  /// where `clip_mask` (empty, or CV_8UC1 of the same size) is non-zero.
+  Status add_shared_direction_view(int view, const cv::Mat& radiance_rgb, const Eigen::Vector3f& direction,
+                                   const cv::Mat& clip_mask = {});
   /// Transposes the spilled views into tiles, writes the index and header, and renames into place.
   Status finish();
 
