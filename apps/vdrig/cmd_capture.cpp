@@ -98,8 +98,10 @@ Status run(const CaptureArgs& a) {
   if (!rig) return rig.error();
   const Status s = capture::run_session(rig.value(), session.value(), options);
   progress.finish();
-  if (!s && (s.error().code == ErrorCode::kNoSpace || s.error().code == ErrorCode::kCancelled))
-    std::printf("stopped; nothing is lost: vdrig capture --resume %s\n", session->dir().c_str());
+  // Whatever stopped it (a full disk, a drive fault, a camera gone), the journal keeps every completed view.
+  if (!s)
+    std::printf("stopped after %d/%zu views; nothing is lost: vdrig capture --resume %s\n",
+                session->completed_view_count(), session->manifest().views.size(), session->dir().c_str());
   return s;
 }
 

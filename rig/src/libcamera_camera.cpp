@@ -77,6 +77,7 @@ std::optional<PixelLayout> layout_of(const lc::PixelFormat& f) {
 }  // namespace
 
 Result<std::vector<std::string>> list_libcamera_cameras() {
+  ::setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", 0);  // a listing, not a debugging session (unless asked for)
   lc::CameraManager manager;
   if (const int r = manager.start(); r != 0)
     return make_error(ErrorCode::kDevice, "libcamera: camera manager did not start: " + std::string(strerror(-r)));

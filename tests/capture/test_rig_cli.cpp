@@ -155,5 +155,43 @@ TEST_F(RigCli, CaptureWithTheSimulatedCameraAgainstThePeer) {
   EXPECT_FALSE(peer_->moving(2));
 }
 
+TEST_F(RigCli, CaptureFailingOnADriveFaultResumesWithNoViewLostOrDoubled) {
+  start_peer();
+  if (IsSkipped()) return;
+  json config = peer_rig_config(peer_->port());
+  for (const char* axis : {"pan", "tilt"}) {
+    config["stage"][axis]["max_speed_deg_s"] = 720;
+    config["stage"][axis]["accel_deg_s2"] = 7200;
+  }
+  testing::write_text(rig_file_, config.dump(2));
+  // The pan drive starts refusing commands while the first view's move runs: that move ends, the next is refused
+  // on every retry, and the capture stops with the fault.
+  ASSERT_TRUE(peer_->command("on_move 0.02 refuse 1"));
+  const fs::path session = dir_.path() / "S";
+  const auto failed = vdrig({"capture", "--rig", rig_file_.string(), "--scheme", "latlong:2", "--bracket", "fixed:0.01",
+                             "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_},
+                            60.0);
+  ASSERT_EQ(failed.exit_code, 1) << failed.out << failed.err;
+  EXPECT_NE(failed.err.find("pan drive (unit 1"), std::string::npos) << failed.err;
+  EXPECT_NE(failed.out.find("vdrig capture --resume " + session.string()), std::string::npos) << failed.out;
+  {
+    auto partial = Session::open(session);
+    ASSERT_TRUE(partial) << partial.error().describe();
+    EXPECT_LT(partial->completed_view_count(), static_cast<int>(partial->manifest().views.size()));
+  }
+  ASSERT_TRUE(peer_->command("clear"));
+  const auto resumed =
+      vdrig({"capture", "--resume", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_}, 60.0);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out << resumed.err;
+  auto done = Session::open(session);
+  ASSERT_TRUE(done) << done.error().describe();
+  EXPECT_EQ(done->completed_view_count(), static_cast<int>(done->manifest().views.size()));
+  // One frame file per view and exposure: nothing captured twice, nothing missing.
+  size_t frames = 0;
+  for (const auto& e : fs::recursive_directory_iterator(session / "frames"))
+    frames += e.is_regular_file() && e.path().extension() != ".tmp";
+  EXPECT_EQ(frames, done->manifest().views.size());
+}
+
 }  // namespace
 }  // namespace vdrig::capture
