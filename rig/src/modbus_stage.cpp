@@ -309,6 +309,8 @@ Status ModbusStage::wait_both(const char* what, double timeout_s, Done&& done) {
       all_done = all_done && axis_done.value();
     }
     if (all_done) return Status::ok();
+    if (stop_requested_.load())
+      return halt_after(make_error(ErrorCode::kCancelled, backend() + ": " + what + " stopped on request"));
     if (Clock::now() >= deadline)
       return halt_after(make_error(
           ErrorCode::kTimeout, backend() + ": " + what + " not finished within " + std::to_string(timeout_s) + " s; " +
@@ -318,6 +320,7 @@ Status ModbusStage::wait_both(const char* what, double timeout_s, Done&& done) {
 }
 
 Status ModbusStage::home() {
+  stop_requested_ = false;
   for (Axis a : {Axis::kPan, Axis::kTilt}) {
     auto r = read_back(a);
     if (!r) return r.error();
@@ -340,6 +343,7 @@ Status ModbusStage::home() {
 }
 
 Status ModbusStage::move_to(const PanTilt& target) {
+  stop_requested_ = false;
   const double target_rad[2] = {target.pan_rad, target.tilt_rad};
   int32_t target_counts[2] = {};
   int32_t start_counts[2] = {};
@@ -411,7 +415,10 @@ Result<PanTilt> ModbusStage::position() {
   return p;
 }
 
-Status ModbusStage::stop() { return stop_locked(); }
+Status ModbusStage::stop() {
+  stop_requested_ = true;  // a move_to/home waiting on another thread ends instead of waiting for its timeout
+  return stop_locked();
+}
 
 }  // namespace vdrig::rig
 

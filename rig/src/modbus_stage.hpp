@@ -18,6 +18,7 @@
 // "max_speed_deg_s"/"accel_deg_s2" x |counts_per_degree| must fit the uint32 profile registers (validated).
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -114,6 +115,7 @@ class ModbusStage final : public PanTiltStage {
   std::mutex mutex_;  // one request at a time on the link; stop() may come from another thread
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;
+  std::atomic<bool> stop_requested_{false};  // stop() during a move/home: the wait ends with kCancelled
 };
 
 }  // namespace vdrig::rig
