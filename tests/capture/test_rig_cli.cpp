@@ -44,6 +44,15 @@ class RigCli : public ::testing::Test {
     ASSERT_GT(peer_->port(), 0) << "the pymodbus peer did not start";
     testing::write_text(rig_file_, peer_rig_config(peer_->port(), word_order).dump(2));
   }
+  /// Faster axes than the bring-up tests': 16 views round the whole pan range in a few seconds.
+  void write_fast_capture_config() {
+    json config = peer_rig_config(peer_->port());
+    for (const char* axis : {"pan", "tilt"}) {
+      config["stage"][axis]["max_speed_deg_s"] = 720;
+      config["stage"][axis]["accel_deg_s2"] = 7200;
+    }
+    testing::write_text(rig_file_, config.dump(2));
+  }
   testing::ProcessResult vdrig(std::vector<std::string> args, double timeout_s = 60.0) {
     args.insert(args.begin(), testing::vdrig_cli());
     return testing::run_process(args, timeout_s);
@@ -134,13 +143,7 @@ TEST_F(RigCli, HomeMovePositionAndShoot) {
 TEST_F(RigCli, CaptureWithTheSimulatedCameraAgainstThePeer) {
   start_peer();
   if (IsSkipped()) return;
-  // Faster axes than the bring-up tests': 16 views round the whole pan range in a few seconds.
-  json config = peer_rig_config(peer_->port());
-  for (const char* axis : {"pan", "tilt"}) {
-    config["stage"][axis]["max_speed_deg_s"] = 720;
-    config["stage"][axis]["accel_deg_s2"] = 7200;
-  }
-  testing::write_text(rig_file_, config.dump(2));
+  write_fast_capture_config();
   const fs::path session = dir_.path() / "S";
   const auto r = vdrig({"capture", "--rig", rig_file_.string(), "--scheme", "latlong:2", "--bracket", "fixed:0.01",
                         "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_},
@@ -158,12 +161,7 @@ TEST_F(RigCli, CaptureWithTheSimulatedCameraAgainstThePeer) {
 TEST_F(RigCli, CaptureFailingOnADriveFaultResumesWithNoViewLostOrDoubled) {
   start_peer();
   if (IsSkipped()) return;
-  json config = peer_rig_config(peer_->port());
-  for (const char* axis : {"pan", "tilt"}) {
-    config["stage"][axis]["max_speed_deg_s"] = 720;
-    config["stage"][axis]["accel_deg_s2"] = 7200;
-  }
-  testing::write_text(rig_file_, config.dump(2));
+  write_fast_capture_config();
   // The pan drive starts refusing commands while the first view's move runs: that move ends, the next is refused
   // on every retry, and the capture stops with the fault.
   ASSERT_TRUE(peer_->command("on_move 0.02 refuse 1"));
