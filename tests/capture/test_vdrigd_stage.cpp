@@ -28,13 +28,13 @@ TEST(VdrigdStage, AnswersWhileTheStageMovesAndStopHaltsIt) {
   config.sessions_dir = root.path() / "sessions";
   // 10 deg/s: a 60 deg move takes over 6 s, far longer than any answer may wait.
   auto axis = [](int unit) {
-    return json{{"unit", unit},          {"counts_per_degree", 1000}, {"min_deg", -90},
-                {"max_deg", 90},         {"max_speed_deg_s", 10},     {"accel_deg_s2", 100}};
+    return json{{"unit", unit},  {"counts_per_degree", 1000}, {"min_deg", -90},
+                {"max_deg", 90}, {"max_speed_deg_s", 10},     {"accel_deg_s2", 100}};
   };
   config.rig_config = testing::small_sim_config();
   config.rig_config.erase("light");
   config.rig_config["stage"] = {{"backend", "modbus-tcp"}, {"host", "127.0.0.1"}, {"port", peer.port()},
-                                {"poll_interval_s", 0.01},  {"pan", axis(1)},      {"tilt", axis(2)}};
+                                {"poll_interval_s", 0.01}, {"pan", axis(1)},      {"tilt", axis(2)}};
   config.make_rig = [](const json& rc) {
     rig::BackendRegistry registry;
     rig::register_hardware_backends(registry);
@@ -57,8 +57,8 @@ TEST(VdrigdStage, AnswersWhileTheStageMovesAndStopHaltsIt) {
   ASSERT_EQ(homed.value("ok", false), true) << homed.dump();
   EXPECT_EQ(homed["id"], 1);
 
-  ASSERT_TRUE(testing::send_all(mover, json{{"cmd", "move"}, {"id", 2}, {"pan_deg", 60}, {"tilt_deg", 0}}.dump() +
-                                           "\n"));
+  ASSERT_TRUE(
+      testing::send_all(mover, json{{"cmd", "move"}, {"id", 2}, {"pan_deg", 60}, {"tilt_deg", 0}}.dump() + "\n"));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   auto t0 = Clock::now();
   const json status = testing::request(watcher, watcher_buf, {{"cmd", "status"}});
