@@ -167,10 +167,12 @@ TEST_F(RigCli, CaptureFailingOnADriveFaultResumesWithNoViewLostOrDoubled) {
   ASSERT_TRUE(peer_->command("on_move 0.02 refuse 1"));
   const fs::path session = dir_.path() / "S";
   const auto failed = vdrig({"capture", "--rig", rig_file_.string(), "--scheme", "latlong:2", "--bracket", "fixed:0.01",
-                             "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_},
+                             "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_,
+                             "--device-attempts", "2", "--backoff-s", "0.01"},
                             60.0);
   ASSERT_EQ(failed.exit_code, 1) << failed.out << failed.err;
   EXPECT_NE(failed.err.find("pan drive (unit 1"), std::string::npos) << failed.err;
+  EXPECT_NE(failed.err.find("failed 2 times"), std::string::npos) << "--device-attempts 2:\n" << failed.err;
   EXPECT_NE(failed.out.find("vdrig capture --resume " + session.string()), std::string::npos) << failed.out;
   {
     auto partial = Session::open(session);
