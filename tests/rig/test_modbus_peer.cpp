@@ -107,7 +107,7 @@ TEST_F(PeerTest, AlarmDuringAMoveStopsBothAxes) {
   const auto t0 = Clock::now();
   const Status s = stage_->move_to({40.0 * kDeg, 40.0 * kDeg});  // 0.54 s each: both are moving at 0.05 s
   ASSERT_FALSE(s);
-  EXPECT_LT(seconds_since(t0), 0.4);
+  EXPECT_LT(seconds_since(t0), 0.5);  // well before the 0.54 s the moves take
   EXPECT_EQ(s.error().code, ErrorCode::kDevice);
   EXPECT_NE(s.error().message.find("tilt drive (unit 2, at "), std::string::npos) << s.describe();
   EXPECT_NE(s.error().message.find("0x2310"), std::string::npos) << s.describe();
