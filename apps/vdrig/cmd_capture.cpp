@@ -26,6 +26,7 @@ struct CaptureArgs {
   std::string resume;
   std::string runtime_dir = capture::default_runtime_dir().string();  // where rig locks live (as vdrigd's)
   double reserve_mb = 256;
+  capture::RetryPolicy retry;  // device faults: attempts in all and the backoff between them
 };
 
 Status run(const CaptureArgs& a) {
@@ -34,6 +35,9 @@ Status run(const CaptureArgs& a) {
   auto reserve = capture::disk_reserve_bytes_from_mib(a.reserve_mb);
   if (!reserve) return reserve.error();
   options.disk_reserve_bytes = reserve.value();
+  options.retry = a.retry;
+  if (a.retry.max_attempts < 1 || !(a.retry.initial_backoff_s >= 0) || !(a.retry.max_backoff_s >= 0))
+    return make_error(ErrorCode::kInvalidArgument, "--device-attempts must be >= 1 and the backoffs >= 0");
   std::optional<capture::Session> session;
   // One process drives a rig (process_lock.hpp: rig_lock_name); held until the capture returns, taken before the
   // rig is built or a session folder is made for it.
@@ -98,8 +102,10 @@ Status run(const CaptureArgs& a) {
   if (!rig) return rig.error();
   const Status s = capture::run_session(rig.value(), session.value(), options);
   progress.finish();
-  if (!s && (s.error().code == ErrorCode::kNoSpace || s.error().code == ErrorCode::kCancelled))
-    std::printf("stopped; nothing is lost: vdrig capture --resume %s\n", session->dir().c_str());
+  // Whatever stopped it (a full disk, a drive fault, a camera gone), the journal keeps every completed view.
+  if (!s)
+    std::printf("stopped after %d/%zu views; nothing is lost: vdrig capture --resume %s\n",
+                session->completed_view_count(), session->manifest().views.size(), session->dir().c_str());
   return s;
 }
 
@@ -113,6 +119,12 @@ CommandRegistrar reg([](CLI::App& root) {
   cmd->add_option("--out", a->out, "new session folder");
   cmd->add_option("--resume", a->resume, "session folder to resume (rig config from its manifest)");
   cmd->add_option("--reserve-mb", a->reserve_mb, "free disk space to keep, MiB")->capture_default_str();
+  cmd->add_option("--device-attempts", a->retry.max_attempts,
+                  "attempts of a device call (stage, camera) before the session stops with the fault")
+      ->capture_default_str();
+  cmd->add_option("--backoff-s", a->retry.initial_backoff_s, "wait before the first retry (doubles after each)")
+      ->capture_default_str();
+  cmd->add_option("--max-backoff-s", a->retry.max_backoff_s, "longest wait between retries")->capture_default_str();
   cmd->add_option("--runtime-dir", a->runtime_dir, "folder of the rig locks (vdrigd's runtime dir)")
       ->capture_default_str();
   cmd->callback([a] { finish(run(*a)); });

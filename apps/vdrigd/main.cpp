@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   std::string level = "info";
   long allowed_gid = -1;
   double reserve_mb = 256;
+  capture::RetryPolicy retry;
   app.add_option("--runtime-dir", runtime_dir, "folder of the control socket vdrigd.sock")->capture_default_str();
   app.add_option("--sessions-dir", sessions_dir, "folder holding the sessions")->required();
   app.add_option("--rig", rig_file, "rig config JSON (default: the simulator)");
@@ -36,6 +37,12 @@ int main(int argc, char** argv) {
   app.add_option("--allowed-gid", allowed_gid, "also accept clients of this group");
   app.add_option("--reserve-mb", reserve_mb, "free disk space to keep, MiB")->capture_default_str();
   app.add_option("--log-level", level, log::kLevelNames)->capture_default_str();
+  app.add_option("--device-attempts", retry.max_attempts,
+                 "attempts of a device call (stage, camera) before a session stops with the fault")
+      ->capture_default_str();
+  app.add_option("--backoff-s", retry.initial_backoff_s, "wait before the first retry (doubles after each)")
+      ->capture_default_str();
+  app.add_option("--max-backoff-s", retry.max_backoff_s, "longest wait between retries")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (auto s = log::set_level(level); !s) {
     std::fprintf(stderr, "vdrigd: %s\n", s.error().message.c_str());
@@ -53,6 +60,11 @@ int main(int argc, char** argv) {
   config.sessions_dir = sessions_dir;
   if (allowed_gid >= 0) config.allowed_gid = static_cast<gid_t>(allowed_gid);
   config.capture.disk_reserve_bytes = reserve.value();
+  config.capture.retry = retry;
+  if (retry.max_attempts < 1 || !(retry.initial_backoff_s >= 0) || !(retry.max_backoff_s >= 0)) {
+    logger->error("--device-attempts must be >= 1 and the backoffs >= 0");
+    return 2;
+  }
   if (!rig_file.empty()) {
     auto file = read_json_file(rig_file);
     if (!file) {

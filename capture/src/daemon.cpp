@@ -91,6 +91,7 @@ Status Daemon::run() {
         d.stop_flag, [&](const std::string& line, bool& subscribed) { return d.protocol.answer(line, subscribed); },
         [&] {
           for (const auto& event : d.runner.take_events()) d.server.push(event);
+          if (auto reply = d.protocol.take_deferred_reply()) d.server.send_deferred(*reply);
         });
     log::get("vdrigd")->info("shutting down");
     d.runner.shutdown();

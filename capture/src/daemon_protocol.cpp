@@ -111,19 +111,27 @@ const std::map<std::string, Protocol::Command, std::less<>>& Protocol::commands(
       {"home", {{}, &Protocol::home}},
       {"move", {{{"pan_deg", T::kNumber, true}, {"tilt_deg", T::kNumber, true}}, &Protocol::move}},
       {"list-sessions", {{}, &Protocol::list_sessions}},
+      {"stop", {{}, &Protocol::stop}},
   };
   return table;
 }
 
-json Protocol::answer(const std::string& line, bool& subscribed) {
+std::optional<json> Protocol::answer(const std::string& line, bool& subscribed) {
   std::string_view text = line;
   if (!text.empty() && text.back() == '\r') text.remove_suffix(1);
   json id;
+  deferred_ = false;
   // Handlers report failures as values. This catch is the backstop for what they call but do not own (the rig
   // factory, describe_surface, allocation): one request must not take the daemon down.
   try {
-    return answer_request(text, id, subscribed).to_json(id);
+    json reply = answer_request(text, id, subscribed).to_json(id);
+    if (deferred_) {
+      deferred_id_ = id;
+      return std::nullopt;
+    }
+    return reply;
   } catch (const std::exception& e) {
+    deferred_ = false;
     return error_reply({wire_code(ErrorCode::kInternal), e.what()}, id);
   }
 }
@@ -173,7 +181,15 @@ Reply Protocol::answer_request(std::string_view line, json& id, bool& subscribed
 
 // --- handlers: the request's fields are present when required and of the declared type ---
 
-Reply Protocol::status(const json&, bool&) { return runner_.status(); }
+namespace {
+constexpr const char* kBusyStage = "the stage is homing or moving; wait for it or send stop";
+}  // namespace
+
+Reply Protocol::status(const json&, bool&) {
+  json status = runner_.status();
+  if (runner_.moving()) status["stage"] = "moving";
+  return status;
+}
 
 Reply Protocol::subscribe(const json&, bool& subscribed) {
   subscribed = true;
@@ -182,6 +198,7 @@ Reply Protocol::subscribe(const json&, bool& subscribed) {
 
 Reply Protocol::start(const json& request, bool&) {
   if (runner_.running()) return RequestError{wire::kBusy, "a session is running"};
+  if (runner_.moving()) return RequestError{wire::kBusy, kBusyStage};
   const std::string name = request.at("session").get<std::string>();
   std::string why;
   if (!valid_session_name(name, &why)) return make_error(ErrorCode::kInvalidArgument, why);
@@ -228,6 +245,7 @@ Reply Protocol::abort(const json&, bool&) {
 
 Reply Protocol::resume(const json& request, bool&) {
   if (runner_.running()) return RequestError{wire::kBusy, "a session is running"};
+  if (runner_.moving()) return RequestError{wire::kBusy, kBusyStage};
   std::string name = runner_.session_name();
   if (request.contains("session")) {
     name = request.at("session").get<std::string>();
@@ -252,15 +270,29 @@ constexpr const char* kBusyMoving = "a session is running; pause or abort it fir
 
 Reply Protocol::home(const json&, bool&) {
   if (runner_.running()) return RequestError{wire::kBusy, kBusyMoving};
-  return position_reply(runner_.home());
+  if (runner_.moving()) return RequestError{wire::kBusy, kBusyStage};
+  if (Status started = runner_.start_home(); !started) return started.error();
+  deferred_ = true;
+  return json::object();
 }
 
 Reply Protocol::move(const json& request, bool&) {
   if (runner_.running()) return RequestError{wire::kBusy, kBusyMoving};
+  if (runner_.moving()) return RequestError{wire::kBusy, kBusyStage};
   const PanTilt target{deg_to_rad(request.at("pan_deg").get<double>()),
                        deg_to_rad(request.at("tilt_deg").get<double>())};
-  return position_reply(runner_.move_to(target));
+  if (Status started = runner_.start_move(target); !started) return started.error();
+  deferred_ = true;
+  return json::object();
 }
+
+std::optional<json> Protocol::take_deferred_reply() {
+  auto result = runner_.take_motion_result();
+  if (!result) return std::nullopt;
+  return position_reply(*result).to_json(deferred_id_);
+}
+
+Reply Protocol::stop(const json&, bool&) { return runner_.stop_motion(); }
 
 Reply Protocol::list_sessions(const json&, bool&) {
   json list = json::array();

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -58,9 +59,12 @@ class Protocol {
   /// `config` and `runner` must outlive the protocol.
   Protocol(const DaemonConfig& config, SessionRunner& runner);
 
-  /// Answers one request line (without its '\n'; a trailing '\r' is ignored): the whole reply object. `subscribe`
-  /// sets `subscribed`. Never throws.
-  nlohmann::json answer(const std::string& line, bool& subscribed);
+  /// Answers one request line (without its '\n'; a trailing '\r' is ignored): the whole reply object, or nullopt
+  /// for a `home`/`move` that was started and is answered by take_deferred_reply() when it ends (the connection
+  /// waits for it; others are served meanwhile). `subscribe` sets `subscribed`. Never throws.
+  std::optional<nlohmann::json> answer(const std::string& line, bool& subscribed);
+  /// The reply to the deferred `home`/`move` once the stage has finished; nullopt until then.
+  std::optional<nlohmann::json> take_deferred_reply();
 
  private:
   enum class FieldType { kString, kNumber, kObject };
@@ -86,9 +90,12 @@ class Protocol {
   Reply home(const nlohmann::json& request, bool& subscribed);
   Reply move(const nlohmann::json& request, bool& subscribed);
   Reply list_sessions(const nlohmann::json& request, bool& subscribed);
+  Reply stop(const nlohmann::json& request, bool& subscribed);
 
   const DaemonConfig& config_;
   SessionRunner& runner_;
+  bool deferred_ = false;       // set by home/move when the reply comes later
+  nlohmann::json deferred_id_;  // the deferred request's "id"
 };
 
 }  // namespace vdrig::capture

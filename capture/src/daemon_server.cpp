@@ -117,6 +117,15 @@ void SocketServer::push(const json& event) {
     if (c.subscribed && !c.closing) send(c, event);
 }
 
+void SocketServer::send_deferred(const json& reply) {
+  for (auto& [fd, c] : clients_)
+    if (c.awaiting_reply) {
+      c.awaiting_reply = false;
+      if (!c.closing) send(c, reply);
+      return;
+    }
+}
+
 void SocketServer::accept_clients() {
   while (true) {
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
@@ -140,7 +149,9 @@ void SocketServer::accept_clients() {
   }
 }
 
-bool SocketServer::has_pending_line(const Connection& c) { return !c.closing && c.in.find('\n') != std::string::npos; }
+bool SocketServer::has_pending_line(const Connection& c) {
+  return !c.closing && !c.awaiting_reply && c.in.find('\n') != std::string::npos;
+}
 
 bool SocketServer::read_client(Connection& c) {
   char buf[16384];
@@ -157,7 +168,7 @@ bool SocketServer::read_client(Connection& c) {
 
 void SocketServer::answer_client(Connection& c, const LineHandler& on_line) {
   size_t start = 0;
-  for (int answered = 0; answered < kRequestsPerRound && !c.closing; ++answered) {
+  for (int answered = 0; answered < kRequestsPerRound && !c.closing && !c.awaiting_reply; ++answered) {
     const size_t pos = c.in.find('\n', start);
     if (pos == std::string::npos) break;
     const std::string line = c.in.substr(start, pos - start);
@@ -166,7 +177,12 @@ void SocketServer::answer_client(Connection& c, const LineHandler& on_line) {
       too_long(c);
       break;
     }
-    send(c, on_line(line, c.subscribed));
+    auto reply = on_line(line, c.subscribed);
+    if (!reply) {
+      c.awaiting_reply = true;  // later lines wait for this reply, in order
+      break;
+    }
+    send(c, *reply);
   }
   if (c.closing) return;
   c.in.erase(0, start);
@@ -200,7 +216,7 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
       // A client with unanswered lines is not read from until they are answered (round-robin, bounded buffers).
       const bool pending = has_pending_line(c);
       work_pending = work_pending || pending;
-      short ev = c.closing || c.eof || pending ? 0 : POLLIN;
+      short ev = c.closing || c.eof || pending || c.awaiting_reply ? 0 : POLLIN;
       if (!c.out.empty()) ev |= POLLOUT;
       fds.push_back({fd, ev, 0});
     }
@@ -233,7 +249,7 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
     for (auto it = clients_.begin(); it != clients_.end();) {
       Connection& c = it->second;
       const bool ok = flush_client(c);
-      const bool done = c.out.empty() && (c.closing || (c.eof && !has_pending_line(c)));
+      const bool done = c.out.empty() && !c.awaiting_reply && (c.closing || (c.eof && !has_pending_line(c)));
       if (!ok || done) {
         ::close(c.fd);
         it = clients_.erase(it);

@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "vdrig/capture/daemon.hpp"
@@ -22,15 +23,18 @@ namespace vdrig::capture {
 /// One client connection.
 struct Connection {
   int fd = -1;
-  std::string in;           // bytes received, not yet a complete line
-  std::string out;          // bytes queued for sending
-  bool subscribed = false;  // wants pushed events (set by the protocol's `subscribe`)
-  bool closing = false;     // input is ignored; close once `out` is flushed
-  bool eof = false;         // the peer shut down its writing side: answer what is in `in`, then close
+  std::string in;               // bytes received, not yet a complete line
+  std::string out;              // bytes queued for sending
+  bool subscribed = false;      // wants pushed events (set by the protocol's `subscribe`)
+  bool closing = false;         // input is ignored; close once `out` is flushed
+  bool eof = false;             // the peer shut down its writing side: answer what is in `in`, then close
+  bool awaiting_reply = false;  // a request's reply comes later (send_deferred); later lines wait for it
 };
 
-/// Answers one request line (its '\n' and any '\r' left on): the reply object. May set `subscribed`.
-using LineHandler = std::function<nlohmann::json(const std::string& line, bool& subscribed)>;
+/// Answers one request line (its '\n' and any '\r' left on): the reply object, or nullopt when the reply comes
+/// later through send_deferred() (the connection's further lines wait; other clients are served). May set
+/// `subscribed`.
+using LineHandler = std::function<std::optional<nlohmann::json>(const std::string& line, bool& subscribed)>;
 
 class SocketServer {
  public:
@@ -55,6 +59,8 @@ class SocketServer {
   Status serve(const std::atomic<bool>& stop, const LineHandler& on_line, const std::function<void()>& after_io);
   /// Queues `event` on every subscribed connection.
   void push(const nlohmann::json& event);
+  /// Queues the deferred reply on the connection waiting for it (dropped when that client has gone).
+  void send_deferred(const nlohmann::json& reply);
   /// Writes what can be written without blocking, closes every connection and the socket, and removes it.
   void close();
   /// Async-signal-safe: makes a waiting serve() look at its state again.

@@ -27,7 +27,10 @@ const char* state_name(RunState state) {
 SessionRunner::SessionRunner(const DaemonConfig& config, std::function<void()> wake)
     : config_(config), wake_(std::move(wake)) {}
 
-SessionRunner::~SessionRunner() { join_worker(); }
+SessionRunner::~SessionRunner() {
+  join_worker();
+  if (motion_.joinable()) motion_.join();
+}
 
 void SessionRunner::join_worker() {
   if (worker_.joinable()) worker_.join();
@@ -124,22 +127,82 @@ SessionRunner::StopReply SessionRunner::stop(StopIntent what) {
   return asked;
 }
 
-Result<PanTilt> SessionRunner::home() {
-  join_worker();
-  VDRIG_TRY(ensure_rig(config_.rig_config, false));
-  VDRIG_TRY(rig_->stage->home());
-  return rig_->stage->position();
+bool SessionRunner::moving() {
+  std::lock_guard lock(mutex_);
+  return !motion_what_.empty();
 }
 
-Result<PanTilt> SessionRunner::move_to(const PanTilt& target) {
+template <typename Motion>
+Status SessionRunner::launch_motion(const char* what, Motion motion) {
+  if (motion_.joinable()) motion_.join();  // the previous one has ended (moving() was false)
+  {
+    std::lock_guard lock(mutex_);
+    motion_what_ = what;
+    motion_result_.reset();
+  }
+  motion_ = std::thread([this, motion] {
+    Result<PanTilt> result = make_error(ErrorCode::kInternal, "motion did not run");
+    // As the capture worker: no exception may cross the thread boundary.
+    try {
+      const Status moved = motion(*rig_->stage);
+      result = moved ? rig_->stage->position() : Result<PanTilt>(moved.error());
+    } catch (const std::exception& e) {
+      result = make_error(ErrorCode::kInternal, std::string("stage threw: ") + e.what());
+    }
+    {
+      std::lock_guard lock(mutex_);
+      motion_what_.clear();
+      motion_result_ = std::move(result);
+    }
+    wake_();
+  });
+  return Status::ok();
+}
+
+Status SessionRunner::start_home() {
+  join_worker();
+  VDRIG_TRY(ensure_rig(config_.rig_config, false));
+  return launch_motion("homing", [](rig::PanTiltStage& stage) { return stage.home(); });
+}
+
+Status SessionRunner::start_move(const PanTilt& target) {
   join_worker();
   VDRIG_TRY(ensure_rig(config_.rig_config, false));
   const rig::StageSpec spec = rig_->stage->spec();
   if (target.pan_rad < spec.pan.min_rad - 1e-12 || target.pan_rad > spec.pan.max_rad + 1e-12 ||
       target.tilt_rad < spec.tilt.min_rad - 1e-12 || target.tilt_rad > spec.tilt.max_rad + 1e-12)
     return make_error(ErrorCode::kInvalidArgument, "target outside the axis limits");
-  VDRIG_TRY(rig_->stage->move_to(target));
-  return rig_->stage->position();
+  return launch_motion("moving", [target](rig::PanTiltStage& stage) { return stage.move_to(target); });
+}
+
+std::optional<Result<PanTilt>> SessionRunner::take_motion_result() {
+  std::optional<Result<PanTilt>> result;
+  {
+    std::lock_guard lock(mutex_);
+    result.swap(motion_result_);
+  }
+  if (result && motion_.joinable()) motion_.join();  // it has set the result: it is ending
+  return result;
+}
+
+json SessionRunner::stop_motion() {
+  json done = json::object();
+  const StopReply paused = stop(StopIntent::kPause);
+  if (paused.outcome == StopOutcome::kStopping) done["paused"] = paused.session;
+  const std::string what = [&] {
+    std::lock_guard lock(mutex_);
+    return motion_what_;
+  }();
+  if (!what.empty()) done["stopped"] = what;
+  // The stage's stop() may be called while another thread is in its move_to (devices.hpp): that move then ends.
+  if (rig_) {
+    const Status halted = rig_->stage->stop();
+    if (!halted) {
+      done["warning"] = "stopping the axes failed: " + halted.describe();
+      log::get("vdrigd")->warn("stop: {}", halted.describe());
+    }
+  }
+  return done;
 }
 
 void SessionRunner::launch(Session session, const std::string& name) {
@@ -223,6 +286,10 @@ void SessionRunner::shutdown() {
     }
   }
   join_worker();  // the worker finishes the frame in hand and parks the axes
+  if (motion_.joinable()) {
+    if (rig_) (void)rig_->stage->stop();  // a home/move in progress ends now rather than at its timeout
+    motion_.join();
+  }
   if (rig_) {
     const Status parked = rig_->stage->move_to(PanTilt{0.0, 0.0});
     if (!parked) log::get("vdrigd")->warn("parking failed: {}", parked.describe());

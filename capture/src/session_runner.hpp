@@ -66,11 +66,18 @@ class SessionRunner {
   /// Pause or abort (`what`).
   StopReply stop(StopIntent what);
 
-  /// Homes the stage of the rig in hand (else of the configured rig); the position reached. Precondition: !running().
-  Result<PanTilt> home();
-  /// Moves there (kInvalidArgument outside the axis limits, nothing moved); the position reached.
-  /// Precondition: !running().
-  Result<PanTilt> move_to(const PanTilt& target);
+  /// Whether a `home` or `move` started by start_home/start_move is still under way.
+  bool moving();
+  /// Starts homing the stage of the rig in hand (else of the configured rig) on a thread of its own, so the daemon
+  /// keeps answering; the outcome comes from take_motion_result(). Precondition: !running() && !moving().
+  Status start_home();
+  /// Starts a move there (kInvalidArgument outside the axis limits, nothing moved), as start_home.
+  Status start_move(const PanTilt& target);
+  /// The position reached by the finished home/move (or its error), once; nullopt while it runs or when none ran.
+  std::optional<Result<PanTilt>> take_motion_result();
+  /// `stop`: halts the axes at once (a home/move in progress ends with kCancelled) and pauses a running session
+  /// after the frame in hand. What it did, for the reply.
+  nlohmann::json stop_motion();
 
   /// Stops a running session after the frame in hand, waits for the worker and parks the axes at pan = tilt = 0.
   void shutdown();
@@ -93,6 +100,9 @@ class SessionRunner {
 
   std::thread worker_;
   std::atomic<bool> worker_stop_{false};
+  std::thread motion_;  // a home/move (start_home/start_move)
+  template <typename Motion>
+  Status launch_motion(const char* what, Motion motion);
   // Below: shared with the worker, under mutex_.
   std::mutex mutex_;
   StopIntent intent_ = StopIntent::kNone;
@@ -101,6 +111,8 @@ class SessionRunner {
   CaptureProgress progress_;
   std::string last_error_, last_error_code_;
   std::deque<nlohmann::json> events_;
+  std::string motion_what_;                       // "homing" / "moving" while a home/move runs, else ""
+  std::optional<Result<PanTilt>> motion_result_;  // set by the motion thread when it ends
 };
 
 }  // namespace vdrig::capture

@@ -55,6 +55,15 @@ class GpiodAxisIo final : public StepDirAxisIo {
   std::unique_ptr<GpioLine> step_, dir_, limit_, enable_;
 };
 
+class GpiodInput final : public StepDirInput {
+ public:
+  explicit GpiodInput(std::unique_ptr<GpioLine> line) : line_(std::move(line)) {}
+  Result<bool> active() override { return line_->get(); }
+
+ private:
+  std::unique_ptr<GpioLine> line_;
+};
+
 }  // namespace
 
 void register_gpiod_backends(BackendRegistry& registry) {
@@ -68,8 +77,15 @@ void register_gpiod_backends(BackendRegistry& registry) {
         if (!pan) return pan.error();
         auto tilt = GpiodAxisIo::open(chip.value(), config->tilt, config->step_pulse_s, "tilt");
         if (!tilt) return tilt.error();
-        return std::unique_ptr<PanTiltStage>(
-            std::make_unique<StepDirStage>(std::move(config.value()), std::move(pan.value()), std::move(tilt.value())));
+        std::unique_ptr<StepDirInput> estop;
+        if (config->estop_line >= 0) {
+          auto line = GpioLine::input(chip.value(), config->estop_line, "vdrig-estop", config->estop_active_low,
+                                      config->estop_active_low);
+          if (!line) return line.error();
+          estop = std::make_unique<GpiodInput>(std::move(line.value()));
+        }
+        return std::unique_ptr<PanTiltStage>(std::make_unique<StepDirStage>(
+            std::move(config.value()), std::move(pan.value()), std::move(tilt.value()), std::move(estop)));
       });
   registry.add_light("gpio", [](const nlohmann::json& settings, RigContext&) { return GpioLight::create(settings); });
 }

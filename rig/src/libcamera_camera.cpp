@@ -76,6 +76,21 @@ std::optional<PixelLayout> layout_of(const lc::PixelFormat& f) {
 
 }  // namespace
 
+Result<std::vector<std::string>> list_libcamera_cameras() {
+  ::setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", 0);  // a listing, not a debugging session (unless asked for)
+  lc::CameraManager manager;
+  if (const int r = manager.start(); r != 0)
+    return make_error(ErrorCode::kDevice, "libcamera: camera manager did not start: " + std::string(strerror(-r)));
+  std::vector<std::string> out;
+  for (const auto& camera : manager.cameras()) {
+    std::string entry = camera->id();
+    if (const auto model = camera->properties().get(lc::properties::Model)) entry += " (" + std::string(*model) + ")";
+    out.push_back(std::move(entry));
+  }
+  manager.stop();
+  return out;
+}
+
 LibcameraCamera::LibcameraCamera(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LibcameraCamera::~LibcameraCamera() = default;
 

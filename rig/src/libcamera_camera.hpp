@@ -10,10 +10,15 @@
 
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "vdrig/rig/devices.hpp"
 
 namespace vdrig::rig {
+
+/// The cameras libcamera sees: "id (model)" each; kDevice when the camera manager does not start.
+Result<std::vector<std::string>> list_libcamera_cameras();
 
 class LibcameraCamera final : public Camera {
  public:

@@ -17,9 +17,13 @@ inline constexpr int kCommand = 6;          // 1 register, see Command; the driv
 inline constexpr int kStatus = 7;           // 1 register, see status bits
 inline constexpr int kActualPosition = 8;   // 2 registers, int32 encoder counts
 inline constexpr int kFaultCode = 10;       // 1 register, drive-specific code, 0 = none
-inline constexpr int kWritableCount = 7;    // registers 0..6
-inline constexpr int kReadbackCount = 4;    // registers 7..10 (status, actual position, fault code)
 inline constexpr int kRegisterCount = 11;
+inline constexpr int kWritableCount = 7;  // registers 0..6
+inline constexpr int kReadbackCount = 4;  // registers 7..10 (status, actual position, fault code)
+// What the stage polls while a drive works: the command register too, so a command the drive refused (left in the
+// register instead of reset to 0) is seen as such rather than ending as a timeout.
+inline constexpr int kPollFirst = kCommand;  // registers 6..10
+inline constexpr int kPollCount = kRegisterCount - kCommand;
 
 enum Command : uint16_t {
   kCmdNone = 0,

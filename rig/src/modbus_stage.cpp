@@ -10,6 +10,7 @@
 #include "axis_settings.hpp"
 #include "backends.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/rig/motion.hpp"
 
 namespace vdrig::rig {
 namespace mm = modbus_map;
@@ -37,6 +38,15 @@ ModbusAxisConfig parse_axis(Settings& parent, const nlohmann::json& section, con
   const double max_counts =
       std::max(std::abs(a.axis.min_rad), std::abs(a.axis.max_rad)) * kDegPerRad * std::abs(a.counts_per_degree);
   if (!a.axis.continuous && max_counts > 2147483647.0) s.fail("travel exceeds the 32-bit encoder range");
+  // The profile registers are uint32 counts/s and counts/s^2: a larger value would wrap silently on the wire.
+  const double speed_counts = a.axis.max_speed_rad_s * kDegPerRad * std::abs(a.counts_per_degree);
+  const double accel_counts = a.axis.accel_rad_s2 * kDegPerRad * std::abs(a.counts_per_degree);
+  if (speed_counts > 4294967295.0)
+    s.fail("max_speed_deg_s x |counts_per_degree| = " + std::to_string(speed_counts) +
+           " counts/s exceeds the 32-bit profile velocity register");
+  if (accel_counts > 4294967295.0)
+    s.fail("accel_deg_s2 x |counts_per_degree| = " + std::to_string(accel_counts) +
+           " counts/s^2 exceeds the 32-bit profile acceleration register");
   parent.absorb(s);
   return a;
 }
@@ -86,7 +96,7 @@ Result<ModbusStageConfig> ModbusStageConfig::parse(const nlohmann::json& setting
   c.response_timeout_s = s.number("response_timeout_s", 0.2, 0.001, 60.0);
   c.retries = static_cast<int>(s.integer("retries", 2, 0, 10));
   c.poll_interval_s = s.number("poll_interval_s", 0.02, 0.0, 5.0);
-  c.move_timeout_s = s.number("move_timeout_s", 60.0, 0.01, 3600.0);
+  c.move_timeout_s = s.number("move_timeout_s", 5.0, 0.01, 3600.0);
   c.home_timeout_s = s.number("home_timeout_s", 120.0, 0.01, 3600.0);
   c.word_order = s.string("word_order", "high-first", {"high-first", "low-first"}) == "low-first"
                      ? mm::WordOrder::kLowFirst
@@ -163,10 +173,12 @@ Status ModbusStage::request(Axis a, const char* what, Op&& op) {
   VDRIG_TRY(ensure_connected());
   modbus_set_slave(ctx_, axis(a).unit);
   int err = 0;
+  bool timed_out = false;
   for (int attempt = 0; attempt <= config_.retries; ++attempt) {
     errno = 0;
     if (op(ctx_) != -1) return Status::ok();
     err = errno;
+    timed_out = timed_out || err == ETIMEDOUT;
     const std::string ctx_msg = backend() + ": " + what + " on " + name(a) + " drive (unit " +
                                 std::to_string(axis(a).unit) + "): " + modbus_strerror(err);
     if (is_link_error(err)) {
@@ -175,30 +187,42 @@ Status ModbusStage::request(Axis a, const char* what, Op&& op) {
     }
     if (!is_transient(err)) return make_error(ErrorCode::kDevice, ctx_msg);
     log::get("rig")->debug("{} (attempt {} of {})", ctx_msg, attempt + 1, config_.retries + 1);
-    // Discard whatever arrived late so the next answer is matched to the next request.
-    modbus_flush(ctx_);
+    const bool last = attempt == config_.retries;
+    VDRIG_TRY(discard_late_replies(err, !last));
+    if (!last) modbus_set_slave(ctx_, axis(a).unit);
   }
   const std::string msg = backend() + ": " + what + " on " + name(a) + " drive (unit " + std::to_string(axis(a).unit) +
                           ") failed after " + std::to_string(config_.retries + 1) +
                           " attempts: " + modbus_strerror(err);
-  if (err == ETIMEDOUT) {
-    // On TCP a drive that stopped answering may have left a half-read frame behind: start the next call on a
-    // fresh connection rather than resynchronising the stream.
-    if (!config_.rtu) drop_connection("no answer");
-    return make_error(ErrorCode::kTimeout, msg);
+  // A drive that answered late, or not at all, is a timeout whatever the retries then read.
+  return make_error(timed_out ? ErrorCode::kTimeout : ErrorCode::kDevice, msg);
+}
+
+Status ModbusStage::discard_late_replies(int err, bool reconnect_now) {
+  if (!config_.rtu) {
+    // The answer to the failed request may still arrive, and libmodbus would read it as the answer to the next
+    // one ("Invalid data", or worse, a plausible value of the wrong register). A fresh connection cannot carry
+    // it: the drive writes it to a socket nobody reads any more.
+    modbus_close(ctx_);
+    connected_ = false;
+    return reconnect_now ? ensure_connected() : Status::ok();
   }
-  return make_error(ErrorCode::kDevice, msg);
+  // On a serial line the late answer arrives within about one more response time: wait for it, then drop it.
+  if (err == ETIMEDOUT) std::this_thread::sleep_for(std::chrono::duration<double>(config_.response_timeout_s));
+  modbus_flush(ctx_);
+  return Status::ok();
 }
 
 Result<ModbusStage::Readback> ModbusStage::read_back(Axis a) {
-  uint16_t regs[mm::kReadbackCount] = {};
+  uint16_t regs[mm::kPollCount] = {};
   VDRIG_TRY(request(a, "reading status", [&](modbus_t* ctx) {
-    return modbus_read_registers(ctx, config_.register_base + mm::kStatus, mm::kReadbackCount, regs);
+    return modbus_read_registers(ctx, config_.register_base + mm::kPollFirst, mm::kPollCount, regs);
   }));
   Readback r;
-  r.status = regs[0];
-  r.actual_counts = mm::get_i32(&regs[mm::kActualPosition - mm::kStatus], config_.word_order);
-  r.fault_code = regs[mm::kFaultCode - mm::kStatus];
+  r.command = regs[mm::kCommand - mm::kPollFirst];
+  r.status = regs[mm::kStatus - mm::kPollFirst];
+  r.actual_counts = mm::get_i32(&regs[mm::kActualPosition - mm::kPollFirst], config_.word_order);
+  r.fault_code = regs[mm::kFaultCode - mm::kPollFirst];
   return r;
 }
 
@@ -212,20 +236,38 @@ Status ModbusStage::write_move(Axis a, int32_t target_counts) {
   const ModbusAxisConfig& ax = axis(a);
   const double cpr = std::abs(ax.counts_per_degree) * kDegPerRad;
   uint16_t regs[mm::kWritableCount] = {};
+  // Validation guarantees both fit in 32 bits (parse_axis).
   mm::put_u32(&regs[mm::kProfileVelocity],
               static_cast<uint32_t>(std::max(1.0, std::round(ax.axis.max_speed_rad_s * cpr))), config_.word_order);
   mm::put_u32(&regs[mm::kProfileAccel], static_cast<uint32_t>(std::max(1.0, std::round(ax.axis.accel_rad_s2 * cpr))),
               config_.word_order);
   mm::put_i32(&regs[mm::kTargetPosition], target_counts, config_.word_order);
   regs[mm::kCommand] = mm::kCmdMove;
-  return request(a, "writing move", [&](modbus_t* ctx) {
+  VDRIG_TRY(request(a, "writing move", [&](modbus_t* ctx) {
     return modbus_write_registers(ctx, config_.register_base, mm::kWritableCount, regs);
-  });
+  }));
+  // A drive that clamps or ignores the profile or target (a value beyond its own limits, registers it does not
+  // store) would make the move's duration and end point differ from what we computed: read them back.
+  uint16_t stored[mm::kCommand] = {};
+  VDRIG_TRY(request(a, "reading back the move", [&](modbus_t* ctx) {
+    return modbus_read_registers(ctx, config_.register_base, mm::kCommand, stored);
+  }));
+  for (int i = 0; i < mm::kCommand; ++i)
+    if (stored[i] != regs[i])
+      return make_error(ErrorCode::kDevice, backend() + ": " + name(a) + " drive (unit " + std::to_string(ax.unit) +
+                                                ") stores register " + std::to_string(i) + " as " + hex16(stored[i]) +
+                                                ", written " + hex16(regs[i]) +
+                                                " (profile or target out of the drive's range?)");
+  return Status::ok();
+}
+
+std::string ModbusStage::where(Axis a, const Readback& r) const {
+  return std::string(name(a)) + " drive (unit " + std::to_string(axis(a).unit) + ", at " +
+         std::to_string(r.actual_counts / axis(a).counts_per_degree) + " deg, status " + hex16(r.status) + ")";
 }
 
 Status ModbusStage::fault_error(Axis a, const Readback& r) const {
-  return make_error(ErrorCode::kDevice, backend() + ": " + name(a) + " drive (unit " + std::to_string(axis(a).unit) +
-                                            ") reports fault code " + hex16(r.fault_code));
+  return make_error(ErrorCode::kDevice, backend() + ": " + where(a, r) + " reports fault code " + hex16(r.fault_code));
 }
 
 Status ModbusStage::stop_locked() {
@@ -235,34 +277,50 @@ Status ModbusStage::stop_locked() {
   return pan ? tilt : pan;
 }
 
+Status ModbusStage::halt_after(Status failure) {
+  const Status halt = stop_locked();  // the other axis would otherwise finish its move unattended
+  if (!halt)
+    log::get("rig")->warn("{}: stopping both drives after a failure failed too: {}", backend(), halt.describe());
+  return failure;
+}
+
 template <typename Done>
 Status ModbusStage::wait_both(const char* what, double timeout_s, Done&& done) {
   using Clock = std::chrono::steady_clock;
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::duration<double>(timeout_s);
+  // Drives reset the command register within a control cycle or two; one that still holds our command after
+  // this long has refused it (a fault it does not report, a command it does not know, a drive in local mode).
+  const auto refuse_after = start + std::chrono::duration<double>(std::max(0.25, 5.0 * config_.poll_interval_s));
+  Readback last[2];
   for (;;) {
     bool all_done = true;
     for (Axis a : {Axis::kPan, Axis::kTilt}) {
       auto r = read_back(a);
-      if (!r) return r.error();
-      if (r->status & mm::kStatusFault) {
-        const Status halt = stop_locked();  // the other axis would otherwise finish its move unattended
-        if (!halt) log::get("rig")->warn("{}: stopping after a fault failed: {}", backend(), halt.describe());
-        return fault_error(a, *r);
-      }
-      all_done = all_done && done(a, *r);
+      if (!r) return halt_after(r.error());
+      last[a == Axis::kPan ? 0 : 1] = *r;
+      if (r->status & mm::kStatusFault) return halt_after(fault_error(a, *r));
+      if (r->command != mm::kCmdNone && !(r->status & mm::kStatusMoving) && Clock::now() >= refuse_after)
+        return halt_after(make_error(ErrorCode::kDevice, backend() + ": " + where(a, *r) + " refused " + what +
+                                                             " (command register still " + hex16(r->command) +
+                                                             ", fault code " + hex16(r->fault_code) + ")"));
+      Result<bool> axis_done = done(a, *r);
+      if (!axis_done) return halt_after(axis_done.error());
+      all_done = all_done && axis_done.value();
     }
     if (all_done) return Status::ok();
-    if (Clock::now() >= deadline) {
-      const Status halt = stop_locked();
-      if (!halt) log::get("rig")->warn("{}: stopping after a timeout failed: {}", backend(), halt.describe());
-      return make_error(ErrorCode::kTimeout,
-                        backend() + ": " + what + " not finished within " + std::to_string(timeout_s) + " s");
-    }
+    if (stop_requested_.load())
+      return halt_after(make_error(ErrorCode::kCancelled, backend() + ": " + what + " stopped on request"));
+    if (Clock::now() >= deadline)
+      return halt_after(make_error(
+          ErrorCode::kTimeout, backend() + ": " + what + " not finished within " + std::to_string(timeout_s) + " s; " +
+                                   where(Axis::kPan, last[0]) + ", " + where(Axis::kTilt, last[1])));
     std::this_thread::sleep_for(std::chrono::duration<double>(config_.poll_interval_s));
   }
 }
 
 Status ModbusStage::home() {
+  stop_requested_ = false;
   for (Axis a : {Axis::kPan, Axis::kTilt}) {
     auto r = read_back(a);
     if (!r) return r.error();
@@ -275,18 +333,21 @@ Status ModbusStage::home() {
     }
   }
   VDRIG_TRY(write_command(Axis::kPan, mm::kCmdHome));
-  VDRIG_TRY(write_command(Axis::kTilt, mm::kCmdHome));
+  if (Status s = write_command(Axis::kTilt, mm::kCmdHome); !s) return halt_after(s);
   // Done = referenced, standing still and at zero. Checking the position too guards against drives that keep the
   // "homed" bit of a previous reference run for a cycle after the new command.
-  return wait_both("homing", config_.home_timeout_s, [&](Axis a, const Readback& r) {
+  return wait_both("homing", config_.home_timeout_s, [&](Axis a, const Readback& r) -> Result<bool> {
     const double window = std::max(1.0, axis(a).in_position_window_deg * std::abs(axis(a).counts_per_degree));
     return (r.status & mm::kStatusHomed) && !(r.status & mm::kStatusMoving) && std::abs(r.actual_counts) <= window;
   });
 }
 
 Status ModbusStage::move_to(const PanTilt& target) {
+  stop_requested_ = false;
   const double target_rad[2] = {target.pan_rad, target.tilt_rad};
   int32_t target_counts[2] = {};
+  int32_t start_counts[2] = {};
+  double profile_time_s = 0.0;
   for (Axis a : {Axis::kPan, Axis::kTilt}) {
     const int i = a == Axis::kPan ? 0 : 1;
     const ModbusAxisConfig& ax = axis(a);
@@ -314,18 +375,30 @@ Status ModbusStage::move_to(const PanTilt& target) {
     if (std::abs(counts) > 2147483647.0)
       return make_error(ErrorCode::kInvalidArgument, backend() + ": target exceeds the 32-bit encoder range");
     target_counts[i] = static_cast<int32_t>(std::lround(counts));
+    start_counts[i] = r->actual_counts;
+    profile_time_s = std::max(profile_time_s, axis_move_time_s((counts - r->actual_counts) / cpr, ax.axis));
   }
-  VDRIG_TRY(write_move(Axis::kPan, target_counts[0]));
-  if (Status s = write_move(Axis::kTilt, target_counts[1]); !s) {
-    const Status halt = write_command(Axis::kPan, mm::kCmdStop);
-    (void)halt;  // the tilt error is the one to report
-    return s;
-  }
+  // Any failure from the first write on stops both drives: one of them may already be moving.
+  if (Status s = write_move(Axis::kPan, target_counts[0]); !s) return halt_after(s);
+  if (Status s = write_move(Axis::kTilt, target_counts[1]); !s) return halt_after(s);
+  // A stuck axis is seen after twice the profile's time plus the margin, not after a fixed worst case.
+  const double timeout_s = 2.0 * profile_time_s + config_.move_timeout_s;
   // Done = in position, not moving and within the window of OUR target: some drives leave "in position" set from
   // the previous move until their next control cycle, which alone would end the wait before the move started.
-  return wait_both("move", config_.move_timeout_s, [&](Axis a, const Readback& r) {
+  return wait_both("move", timeout_s, [&](Axis a, const Readback& r) -> Result<bool> {
     const int i = a == Axis::kPan ? 0 : 1;
     const double window = std::max(1.0, axis(a).in_position_window_deg * std::abs(axis(a).counts_per_degree));
+    // A drive travels between where it was and where it was sent (overshoot aside). A reading far outside that
+    // span is a misread position, most often a word order that differs from the drive's: the target was then
+    // written garbled too, and the drive is going somewhere else.
+    const double lo = std::min(start_counts[i], target_counts[i]), hi = std::max(start_counts[i], target_counts[i]);
+    const double slack = std::max(10.0 * window, 0.25 * (hi - lo));
+    if (r.actual_counts < lo - slack || r.actual_counts > hi + slack)
+      return make_error(ErrorCode::kDevice, backend() + ": " + where(a, r) +
+                                                " reads a position outside its move from " +
+                                                std::to_string(start_counts[i] / axis(a).counts_per_degree) + " to " +
+                                                std::to_string(target_counts[i] / axis(a).counts_per_degree) +
+                                                " deg: is \"word_order\" the drive's?");
     return (r.status & mm::kStatusInPosition) && !(r.status & mm::kStatusMoving) &&
            std::abs(static_cast<double>(r.actual_counts) - target_counts[i]) <= window;
   });
@@ -342,7 +415,10 @@ Result<PanTilt> ModbusStage::position() {
   return p;
 }
 
-Status ModbusStage::stop() { return stop_locked(); }
+Status ModbusStage::stop() {
+  stop_requested_ = true;  // a move_to/home waiting on another thread ends instead of waiting for its timeout
+  return stop_locked();
+}
 
 }  // namespace vdrig::rig
 

@@ -6,15 +6,19 @@
 //   modbus-rtu: "device" (required, e.g. /dev/ttyUSB0), "baud" (115200), "parity" ("N"|"E"|"O"), "data_bits" (8),
 //               "stop_bits" (1)
 //   both: "response_timeout_s" (0.2), "retries" (2, extra attempts on transient errors), "poll_interval_s" (0.02),
-//         "move_timeout_s" (60), "home_timeout_s" (120), "word_order" ("high-first"|"low-first"),
+//         "move_timeout_s" (5; a move may take twice its profile time plus this), "home_timeout_s" (120),
+//         "word_order" ("high-first"|"low-first"),
 //         "register_base" (0),
 //         "pan" / "tilt": { "unit" (1..247, required), "counts_per_degree" (required, != 0; negative flips the
 //                           direction), "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2",
 //                           "continuous" (false), "in_position_window_deg" (0.05) }
-// Errors: a drive fault is kDevice with its fault code; no answer within the timeout (after retries) is kTimeout; a
-// lost link is kDisconnected and the next call reconnects.
+// Errors: a drive fault, a refused command or a position outside the move's span (a word-order mismatch) is kDevice
+// naming the axis, its position and the drive's codes; no answer within the timeout (after retries) is kTimeout; a
+// lost link is kDisconnected and the next call reconnects. Every failure of move_to/home stops both drives.
+// "max_speed_deg_s"/"accel_deg_s2" x |counts_per_degree| must fit the uint32 profile registers (validated).
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -46,7 +50,7 @@ struct ModbusStageConfig {
   double response_timeout_s = 0.2;
   int retries = 2;
   double poll_interval_s = 0.02;
-  double move_timeout_s = 60.0;
+  double move_timeout_s = 5.0;  // margin beyond twice the profile time of a move
   double home_timeout_s = 120.0;
   modbus_map::WordOrder word_order = modbus_map::WordOrder::kHighFirst;
   int register_base = 0;
@@ -75,6 +79,7 @@ class ModbusStage final : public PanTiltStage {
 
  private:
   struct Readback {
+    uint16_t command = 0;  // non-zero: a command the drive has not accepted (yet)
     uint16_t status = 0;
     int32_t actual_counts = 0;
     uint16_t fault_code = 0;
@@ -85,6 +90,9 @@ class ModbusStage final : public PanTiltStage {
   const char* name(Axis a) const { return a == Axis::kPan ? "pan" : "tilt"; }
   Status ensure_connected();
   void drop_connection(const char* why);
+  /// After a failed request: makes sure its answer, should it still come, is never read as the answer to a later
+  /// request (TCP: a new connection, opened now when `reconnect_now`, else on the next call; RTU: wait, flush).
+  Status discard_late_replies(int err, bool reconnect_now);
   /// Runs one Modbus request on `a`'s drive with retries; maps the outcome to a Status.
   template <typename Op>
   Status request(Axis a, const char* what, Op&& op);
@@ -93,7 +101,13 @@ class ModbusStage final : public PanTiltStage {
   Status write_move(Axis a, int32_t target_counts);
   Status stop_locked();
   Status fault_error(Axis a, const Readback& r) const;
-  /// Polls both drives until `done` holds for both, a fault, or the deadline.
+  /// "pan drive (unit 1, at 12.5 deg, status 0x000a)": what an error says about the drive it concerns.
+  std::string where(Axis a, const Readback& r) const;
+  /// Stops both drives (best effort, logged) and returns `failure`: every failure while a drive may be moving ends
+  /// here, so no axis finishes a move unattended.
+  Status halt_after(Status failure);
+  /// Polls both drives until `done` (Result<bool>(Axis, const Readback&); an error ends the wait) holds for both,
+  /// a fault, a refused command, or the deadline; every failure stops both drives.
   template <typename Done>
   Status wait_both(const char* what, double timeout_s, Done&& done);
 
@@ -101,6 +115,7 @@ class ModbusStage final : public PanTiltStage {
   std::mutex mutex_;  // one request at a time on the link; stop() may come from another thread
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;
+  std::atomic<bool> stop_requested_{false};  // stop() during a move/home: the wait ends with kCancelled
 };
 
 }  // namespace vdrig::rig

@@ -49,6 +49,9 @@ Result<Rig> BackendRegistry::make_rig(const nlohmann::json& config) const {
   auto stage = build(stages_, "stage", config.value("stage", nlohmann::json::object()), ctx);
   if (!stage) return stage.error();
   rig.stage = std::move(stage.value());
+  // The camera and light factories may look at the stage just built (the simulated camera paired with a real stage
+  // renders the pose that stage reports): "rig.stage", a non-owning PanTiltStage*, valid as long as the Rig.
+  ctx.shared["rig.stage"] = std::shared_ptr<void>(std::shared_ptr<void>(), rig.stage.get());
   auto camera = build(cameras_, "camera", config.value("camera", nlohmann::json::object()), ctx);
   if (!camera) return camera.error();
   rig.camera = std::move(camera.value());

@@ -65,21 +65,27 @@ Result<StepDirStageConfig> StepDirStageConfig::parse(const nlohmann::json& setti
   StepDirStageConfig c;
   c.chip = s.string("chip", "gpiochip0");
   c.step_pulse_s = s.number("step_pulse_s", 5e-6, 1e-7, 1e-3);
+  c.estop_line = static_cast<int>(s.integer("estop_line", -1, -1, 4095));
+  c.estop_active_low = s.boolean("estop_active_low", true);
   c.pan = parse_axis(s, s.object("pan", true), "pan");
   c.tilt = parse_axis(s, s.object("tilt", true), "tilt");
-  s.reject_unknown({"chip", "step_pulse_s", "pan", "tilt"});
+  s.reject_unknown({"chip", "step_pulse_s", "estop_line", "estop_active_low", "pan", "tilt"});
   if (!s.is_valid(nullptr)) return s.error();
   // Both axes share one chip: no line may serve two purposes.
   for (int a : {c.pan.step_line, c.pan.dir_line, c.pan.limit_line, c.pan.enable_line})
     for (int b : {c.tilt.step_line, c.tilt.dir_line, c.tilt.limit_line, c.tilt.enable_line})
       if (a >= 0 && a == b) s.fail("line " + std::to_string(a) + " is used by both pan and tilt");
+  for (const auto* ax : {&c.pan, &c.tilt})
+    for (int a : {ax->step_line, ax->dir_line, ax->limit_line, ax->enable_line})
+      if (c.estop_line >= 0 && a == c.estop_line)
+        s.fail("line " + std::to_string(a) + " is both an axis line and the emergency stop");
   if (!s.is_valid(nullptr)) return s.error();
   return c;
 }
 
 StepDirStage::StepDirStage(StepDirStageConfig config, std::unique_ptr<StepDirAxisIo> pan_io,
-                           std::unique_ptr<StepDirAxisIo> tilt_io)
-    : config_(std::move(config)) {
+                           std::unique_ptr<StepDirAxisIo> tilt_io, std::unique_ptr<StepDirInput> estop)
+    : config_(std::move(config)), estop_(std::move(estop)) {
   VDRIG_CHECK(pan_io && tilt_io, "both axes need their lines");
   io_[0] = std::move(pan_io);
   io_[1] = std::move(tilt_io);
@@ -118,6 +124,7 @@ Status StepDirStage::run(const Move (&moves)[2], bool (&hit_limit)[2]) {
     }
     if (i < 0) return Status::ok();
     sleep_until(start, setup_s + t);
+    VDRIG_TRY(check_estop());
     if (stop_requested_) {
       log::get("rig")->warn("gpio-stepdir: stopped during a move; steps may be lost at speed, home() advised");
       return make_error(ErrorCode::kCancelled, "gpio-stepdir: move stopped on request");
@@ -139,6 +146,18 @@ Status StepDirStage::run(const Move (&moves)[2], bool (&hit_limit)[2]) {
     pos_[i] += dir[i];
     ++next[i];
   }
+}
+
+Status StepDirStage::check_estop() {
+  if (!estop_) return Status::ok();
+  auto pressed = estop_->active();
+  if (!pressed) return pressed.error();
+  if (!*pressed) return Status::ok();
+  if (!estop_fault_) log::get("rig")->error("gpio-stepdir: emergency stop pressed; motion halted, home() required");
+  estop_fault_ = true;
+  homed_ = false;
+  return make_error(ErrorCode::kDevice,
+                    "gpio-stepdir: emergency stop pressed; motion halted; release it and home() before moving again");
 }
 
 Status StepDirStage::home_axis(int i) {
@@ -174,6 +193,7 @@ Status StepDirStage::home_axis(int i) {
                                                 std::to_string(a.home_backoff_rad * kDegPerRad) + " deg back-off");
     if (stop_requested_) return make_error(ErrorCode::kCancelled, "gpio-stepdir: homing stopped on request");
     sleep_until(start, 20e-6 + (k + 1) * interval_s);
+    VDRIG_TRY(check_estop());
     VDRIG_TRY(io_[i]->pulse());
   }
   pos_[i] = 0;
@@ -183,6 +203,8 @@ Status StepDirStage::home_axis(int i) {
 Status StepDirStage::home() {
   stop_requested_ = false;
   homed_ = false;
+  VDRIG_TRY(check_estop());  // still pressed: nothing moves
+  estop_fault_ = false;
   VDRIG_TRY(home_axis(1));  // tilt first: levels the platform before the pan axis turns
   VDRIG_TRY(home_axis(0));
   homed_ = true;
@@ -190,7 +212,10 @@ Status StepDirStage::home() {
 }
 
 Status StepDirStage::move_to(const PanTilt& target) {
+  if (estop_fault_)
+    return make_error(ErrorCode::kDevice, "gpio-stepdir: halted by the emergency stop; home() before moving again");
   if (!homed_) return make_error(ErrorCode::kDevice, "gpio-stepdir: not homed; call home() first");
+  VDRIG_TRY(check_estop());
   const double t[2] = {target.pan_rad, target.tilt_rad};
   Move moves[2];
   for (int i = 0; i < 2; ++i) {

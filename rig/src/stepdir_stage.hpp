@@ -4,6 +4,8 @@
 //
 // Settings (JSON "stage" section; degrees and seconds):
 //   "chip": "gpiochip0", "step_pulse_s": 5e-6,
+//   "estop_line" (-1 = none: the emergency-stop input), "estop_active_low" (true: pressed reads low, a button to
+//     ground with the pull-up),
 //   "pan" / "tilt": { "step_line", "dir_line", "limit_line" (line offsets, required), "enable_line" (-1 = none),
 //     "enable_active_low" (true), "limit_active_low" (true: switch to ground with pull-up), "dir_invert" (false),
 //     "steps_per_degree" (required, > 0; motor steps x microsteps x gear ratio / 360),
@@ -24,6 +26,13 @@
 #include "vdrig/rig/devices.hpp"
 
 namespace vdrig::rig {
+
+/// The emergency-stop input (logical: true while pressed).
+class StepDirInput {
+ public:
+  virtual ~StepDirInput() = default;
+  virtual Result<bool> active() = 0;
+};
 
 /// The lines of one axis. Values are logical: set_direction(true) = towards positive angles.
 class StepDirAxisIo {
@@ -50,23 +59,28 @@ struct StepDirAxisConfig {
 struct StepDirStageConfig {
   std::string chip = "gpiochip0";
   double step_pulse_s = 5e-6;
+  int estop_line = -1;
+  bool estop_active_low = true;
   StepDirAxisConfig pan, tilt;
   static Result<StepDirStageConfig> parse(const nlohmann::json& settings);
 };
 
 class StepDirStage final : public PanTiltStage {
  public:
-  StepDirStage(StepDirStageConfig config, std::unique_ptr<StepDirAxisIo> pan_io,
-               std::unique_ptr<StepDirAxisIo> tilt_io);
+  /// `estop` (may be null: no emergency stop) is read before every step: while it is active nothing moves.
+  StepDirStage(StepDirStageConfig config, std::unique_ptr<StepDirAxisIo> pan_io, std::unique_ptr<StepDirAxisIo> tilt_io,
+               std::unique_ptr<StepDirInput> estop = nullptr);
   ~StepDirStage() override;
 
   std::string backend() const override { return "gpio-stepdir"; }
   StageSpec spec() const override { return {config_.pan.axis, config_.tilt.axis}; }
   /// Homes tilt, then pan: each moves towards its switch at home speed until it closes (kDevice when it does not
-  /// within home_max_travel), creeps back until it opens, and that step becomes 0.
+  /// within home_max_travel), creeps back until it opens, and that step becomes 0. Clears an emergency-stop fault
+  /// once the button is released (kDevice while it is still pressed).
   Status home() override;
   /// kDevice "not homed" before home(); kInvalidArgument outside the limits; kDevice when a limit switch closes
-  /// on the way; kCancelled after stop().
+  /// on the way; kCancelled after stop(). The emergency stop pressed halts both axes at the next step and is kDevice;
+  /// the stage then refuses every move (kDevice) until home(): steps were lost at speed.
   Status move_to(const PanTilt& target) override;
   Result<PanTilt> position() override;
   Status stop() override;
@@ -84,12 +98,16 @@ class StepDirStage final : public PanTiltStage {
   /// Runs both moves at once, each on its own trapezoid. `hit_limit[i]` tells whether axis i stopped on its switch.
   Status run(const Move (&moves)[2], bool (&hit_limit)[2]);
   Status home_axis(int i);
+  /// kDevice when the emergency stop is pressed (latching the fault: homed_ false).
+  Status check_estop();
 
   StepDirStageConfig config_;
   std::unique_ptr<StepDirAxisIo> io_[2];
   std::atomic<int64_t> pos_[2] = {0, 0};
+  std::unique_ptr<StepDirInput> estop_;
   std::atomic<bool> stop_requested_{false};
   bool homed_ = false;
+  bool estop_fault_ = false;  // latched by the emergency stop until home()
 };
 
 }  // namespace vdrig::rig

@@ -255,6 +255,7 @@ Result<std::vector<UsbStillCamera>> list_usb_still_cameras() {
     if (libusb_open(list[i], &h) == 0) {  // fails without udev permissions; the ids are still useful
       c.manufacturer = descriptor_string(h, d.iManufacturer);
       c.product = descriptor_string(h, d.iProduct);
+      c.serial = descriptor_string(h, d.iSerialNumber);
       libusb_close(h);
     }
     out.push_back(std::move(c));

@@ -27,7 +27,7 @@ namespace vdrig::rig {
 struct UsbStillCamera {
   uint16_t vendor_id = 0, product_id = 0;
   int bus = 0, address = 0;
-  std::string manufacturer, product;  // empty when the device could not be opened (permissions)
+  std::string manufacturer, product, serial;  // empty when the device could not be opened (permissions)
 };
 
 /// Every USB device with an interface of class 6 (still image).

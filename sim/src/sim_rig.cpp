@@ -208,7 +208,8 @@ class SimStage final : public rig::PanTiltStage {
 
 class SimCamera final : public rig::Camera {
  public:
-  explicit SimCamera(std::shared_ptr<SimWorld> world) : world_(std::move(world)) {}
+  /// `follow` (may be null): a stage other than the simulator's, whose reported position each capture renders.
+  SimCamera(std::shared_ptr<SimWorld> world, rig::PanTiltStage* follow) : world_(std::move(world)), follow_(follow) {}
   std::string backend() const override { return "sim"; }
 
   Result<rig::CameraInfo> info() override {
@@ -237,6 +238,13 @@ class SimCamera final : public rig::Camera {
     Frame frame;
     bool light_on = true;
     const auto& c = world_->config;
+    if (follow_) {
+      // A real stage with the simulated camera: the picture shows where that stage says it is.
+      auto at = follow_->position();
+      if (!at) return at.error();
+      std::lock_guard lock(world_->mutex);
+      world_->position = at.value();
+    }
     {
       std::lock_guard lock(world_->mutex);
       const uint64_t call = ++world_->capture_calls;
@@ -295,6 +303,7 @@ class SimCamera final : public rig::Camera {
   }
 
   std::shared_ptr<SimWorld> world_;
+  rig::PanTiltStage* follow_ = nullptr;
   cv::Mat cached_;
   PanTilt cached_position_;
   bool cached_light_on_ = true;
@@ -345,7 +354,17 @@ rig::Factory<Device> factory() {
 
 void register_backends(rig::BackendRegistry& registry) {
   registry.add_stage("sim", factory<rig::PanTiltStage, SimStage>());
-  registry.add_camera("sim", factory<rig::Camera, SimCamera>());
+  registry.add_camera("sim", [](const json&, rig::RigContext& ctx) -> Result<std::unique_ptr<rig::Camera>> {
+    auto world = shared_world(ctx);
+    if (!world) return world.error();
+    // Paired with another backend's stage, the camera follows that stage (registry.cpp: "rig.stage").
+    rig::PanTiltStage* follow = nullptr;
+    if (auto it = ctx.shared.find("rig.stage"); it != ctx.shared.end()) {
+      auto* stage = static_cast<rig::PanTiltStage*>(it->second.get());
+      if (stage && stage->backend() != "sim") follow = stage;
+    }
+    return std::unique_ptr<rig::Camera>(std::make_unique<SimCamera>(world.value(), follow));
+  });
   registry.add_light("sim", factory<rig::Light, SimLight>());
 }
 

@@ -221,10 +221,22 @@ nlohmann::json stage_config(int port, const char* word_order = "high-first") {
           {"poll_interval_s", 0.005},
           {"move_timeout_s", 0.4},
           {"home_timeout_s", 1.0},
+          // A fast profile: a move may take twice its profile time plus move_timeout_s (the fake drives move in
+          // milliseconds whatever they are told).
           {"pan",
-           {{"unit", 1}, {"counts_per_degree", 1000}, {"min_deg", -180}, {"max_deg", 180}, {"max_speed_deg_s", 2000}}},
+           {{"unit", 1},
+            {"counts_per_degree", 1000},
+            {"min_deg", -180},
+            {"max_deg", 180},
+            {"max_speed_deg_s", 2000},
+            {"accel_deg_s2", 20000}}},
           {"tilt",
-           {{"unit", 2}, {"counts_per_degree", -500}, {"min_deg", -90}, {"max_deg", 90}, {"max_speed_deg_s", 2000}}}};
+           {{"unit", 2},
+            {"counts_per_degree", -500},
+            {"min_deg", -90},
+            {"max_deg", 90},
+            {"max_speed_deg_s", 2000},
+            {"accel_deg_s2", 20000}}}};
 }
 
 std::unique_ptr<ModbusStage> make_stage(const nlohmann::json& config) {

@@ -131,6 +131,51 @@ TEST(StepDirStage, HomesOntoTheSwitchsOpeningEdgeAndMovesOnATrapezoid) {
   EXPECT_EQ(s.stage->move_to({200.0 * kDeg, 0.0}).error().code, ErrorCode::kInvalidArgument);
 }
 
+struct FakeEstop final : StepDirInput {
+  std::atomic<bool>* pressed;
+  explicit FakeEstop(std::atomic<bool>* p) : pressed(p) {}
+  Result<bool> active() override { return pressed->load(); }
+};
+
+TEST(StepDirStage, EmergencyStopHaltsAtOnceAndNeedsARehome) {
+  nlohmann::json config = stepdir_config();
+  config["estop_line"] = 6;
+  auto c = StepDirStageConfig::parse(config);
+  ASSERT_TRUE(c) << c.error().describe();
+  std::atomic<int64_t> pan_pos{0}, tilt_pos{0};
+  std::atomic<bool> pressed{false};
+  StepDirStage stage(c.value(), std::make_unique<SimAxis>(&pan_pos, -300, true),
+                     std::make_unique<SimAxis>(&tilt_pos, 150, false), std::make_unique<FakeEstop>(&pressed));
+  ASSERT_TRUE(stage.home());
+  const int64_t pan_home = pan_pos.load();
+  Status moved;
+  std::thread mover([&] { moved = stage.move_to({90.0 * kDeg, 0.0}); });  // 0.55 s
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  pressed = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  mover.join();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0.05);
+  ASSERT_FALSE(moved);
+  EXPECT_EQ(moved.error().code, ErrorCode::kDevice);
+  EXPECT_NE(moved.error().message.find("emergency stop"), std::string::npos) << moved.describe();
+  const int64_t halted_at = pan_pos.load();
+  EXPECT_GT(halted_at, pan_home);
+  EXPECT_LT(halted_at, pan_home + 900);  // halted on the way
+  // Latched: no move until home(), and no home while the button is pressed.
+  pressed = false;
+  EXPECT_EQ(stage.move_to({0.0, 0.0}).error().code, ErrorCode::kDevice);
+  EXPECT_EQ(pan_pos.load(), halted_at);
+  pressed = true;
+  EXPECT_EQ(stage.home().error().code, ErrorCode::kDevice);
+  EXPECT_EQ(pan_pos.load(), halted_at);
+  pressed = false;
+  ASSERT_TRUE(stage.home());
+  EXPECT_TRUE(stage.move_to({10.0 * kDeg, 0.0}));
+  // The emergency stop shares no line with an axis.
+  config["estop_line"] = 2;
+  EXPECT_FALSE(StepDirStageConfig::parse(config));
+}
+
 TEST(StepDirStage, SwitchNotFoundAndSwitchHitAreDeviceErrors) {
   {
     nlohmann::json c = stepdir_config();

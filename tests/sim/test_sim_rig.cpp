@@ -127,6 +127,47 @@ TEST(SimCamera, FramesAreTheRenderedSceneAtTheStagePoseWithTheSurfaceOffset) {
   EXPECT_GT(cv::norm(frame->image, centred, cv::NORM_INF), 100.0);
 }
 
+/// A stage of another backend: stands wherever it is told, instantly.
+class OtherStage final : public rig::PanTiltStage {
+ public:
+  std::string backend() const override { return "other"; }
+  rig::StageSpec spec() const override { return SimConfig().stage; }
+  Status home() override { return move_to({}); }
+  Status move_to(const PanTilt& target) override {
+    at_ = target;
+    return Status::ok();
+  }
+  Result<PanTilt> position() override { return at_; }
+  Status stop() override { return Status::ok(); }
+
+ private:
+  PanTilt at_;
+};
+
+TEST(SimCamera, PairedWithAnotherStageItRendersThePoseThatStageReports) {
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  registry.add_stage("other", [](const json&, rig::RigContext&) -> Result<std::unique_ptr<rig::PanTiltStage>> {
+    return std::unique_ptr<rig::PanTiltStage>(std::make_unique<OtherStage>());
+  });
+  const json section = small_sim(
+      {{"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"response", "linear"}, {"bits", 12}}}});
+  auto r = registry.make_rig({{"stage", {{"backend", "other"}}}, {"camera", {{"backend", "sim"}}}, {"sim", section}});
+  ASSERT_TRUE(r) << r.error().describe();
+  const PanTilt pt{deg_to_rad(30), deg_to_rad(45)};
+  ASSERT_TRUE(r->stage->move_to(pt));
+  ASSERT_TRUE(r->camera->set_exposure(0.8, 1.0));
+  auto frame = r->camera->capture();
+  ASSERT_TRUE(frame) << frame.error().describe();
+  EXPECT_EQ(frame->measured.pan_rad, pt.pan_rad);
+  EXPECT_EQ(frame->measured.tilt_rad, pt.tilt_rad);
+  const SimConfig c = SimConfig::from_json(section).value();
+  const cv::Mat expected =
+      expose(render_radiance(make_scene("patchwork").value(), c.camera, rig::surface_pose(c.geometry, pt), 1), 0.8, 1.0,
+             c.sensor, frame->sequence);
+  EXPECT_EQ(cv::norm(frame->image, expected, cv::NORM_INF), 0.0);
+}
+
 TEST(SimFaults, MoveTimeoutStopsHalfWayAndDriveErrorDoesNotMove) {
   rig::Rig r = make(small_sim({{"faults", {{"move_timeout_at", {2}}, {"drive_error_at", {3}}}}}));
   ASSERT_TRUE(r.stage->home());  // not counted

@@ -39,7 +39,8 @@ class PanTiltStage {
   virtual Status move_to(const PanTilt& target) = 0;
   /// Position read back from the drives' encoders (or step counters).
   virtual Result<PanTilt> position() = 0;
-  /// Stops any motion at once (decelerating where the drive allows).
+  /// Stops any motion at once (decelerating where the drive allows). May be called from another thread while
+  /// home() or move_to() runs; a backend that can, ends that call early (kCancelled) rather than at its timeout.
   virtual Status stop() = 0;
 };
 

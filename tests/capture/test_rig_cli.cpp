@@ -1,0 +1,197 @@
+// `vdrig rig ...` and `vdrig capture` as a user runs them, against the independent Modbus peer
+// (tests/rig/modbus_drive_peer.py, python3-pymodbus) with the simulated camera.
+#include <gtest/gtest.h>
+
+#include "test_support.hpp"
+#include "vdrig/test/modbus_peer.hpp"
+
+namespace vdrig::capture {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::ModbusPeer;
+
+/// The peer's drives as a modbus-tcp stage (fast profile: the self-test's 5 deg moves take about 0.2 s) paired with
+/// the small simulated camera.
+json peer_rig_config(int port, const char* word_order = "high-first") {
+  json config = testing::small_sim_config();
+  auto axis = [](int unit, double lo, double hi) {
+    return json{{"unit", unit},
+                {"counts_per_degree", 1000},
+                {"min_deg", lo},
+                {"max_deg", hi},
+                {"max_speed_deg_s", 90},
+                {"accel_deg_s2", 900},
+                {"in_position_window_deg", 0.01}};
+  };
+  config["stage"] = {{"backend", "modbus-tcp"},  {"host", "127.0.0.1"},       {"port", port},
+                     {"word_order", word_order}, {"response_timeout_s", 0.2}, {"poll_interval_s", 0.01},
+                     {"move_timeout_s", 1.0},    {"home_timeout_s", 2.0},     {"pan", axis(1, -180, 180)},
+                     {"tilt", axis(2, -5, 85)}};
+  config.erase("light");
+  return config;
+}
+
+class RigCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (testing::vdrig_cli().empty()) GTEST_SKIP() << "VDRIG_CLI_PATH not set";
+  }
+  /// Starts the peer (skips when pymodbus is absent) and writes the rig config for it.
+  void start_peer(const std::string& peer_args = "", const char* word_order = "high-first") {
+    if (const std::string why = test::modbus_peer_unavailable(); !why.empty()) GTEST_SKIP() << why;
+    peer_ = std::make_unique<ModbusPeer>(peer_args);
+    ASSERT_GT(peer_->port(), 0) << "the pymodbus peer did not start";
+    testing::write_text(rig_file_, peer_rig_config(peer_->port(), word_order).dump(2));
+  }
+  /// Faster axes than the bring-up tests': 16 views round the whole pan range in a few seconds.
+  void write_fast_capture_config() {
+    json config = peer_rig_config(peer_->port());
+    for (const char* axis : {"pan", "tilt"}) {
+      config["stage"][axis]["max_speed_deg_s"] = 720;
+      config["stage"][axis]["accel_deg_s2"] = 7200;
+    }
+    testing::write_text(rig_file_, config.dump(2));
+  }
+  testing::ProcessResult vdrig(std::vector<std::string> args, double timeout_s = 60.0) {
+    args.insert(args.begin(), testing::vdrig_cli());
+    return testing::run_process(args, timeout_s);
+  }
+  vdrig::test::TempDir dir_{"rig_cli"};
+  fs::path rig_file_ = dir_.path() / "rig.json";
+  std::string runtime_dir_ = (dir_.path() / "run").string();
+  std::unique_ptr<ModbusPeer> peer_;
+};
+
+TEST_F(RigCli, DevicesListsEveryKindAndSaysNoneFound) {
+  const auto r = vdrig({"rig", "devices"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* kind :
+       {"V4L2 cameras:", "libcamera cameras:", "USB PTP still cameras:", "serial ports", "GPIO chips"})
+    EXPECT_NE(r.out.find(kind), std::string::npos) << kind << " missing from:\n" << r.out;
+}
+
+TEST_F(RigCli, CheckListsEveryProblemAtOnce) {
+  json config = peer_rig_config(502);
+  config["stage"].erase("host");
+  config["stage"]["word_order"] = "middle-first";
+  config["stage"]["pan"]["max_speed_deg_s"] = 10000;
+  config["stage"]["pan"]["counts_per_degree"] = 1e6;
+  config["camera"] = {{"backend", "no-such-camera"}};
+  testing::write_text(rig_file_, config.dump(2));
+  const auto r = vdrig({"rig", "check", rig_file_.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  for (const char* problem : {"host", "word_order", "32-bit profile velocity", "unknown camera backend"})
+    EXPECT_NE(r.out.find(problem), std::string::npos) << problem << " not reported:\n" << r.out;
+}
+
+TEST_F(RigCli, CheckPrintsEffectiveSettingsWithDefaultsAndRegisterMap) {
+  testing::write_text(rig_file_, peer_rig_config(502).dump(2));
+  const auto r = vdrig({"rig", "check", rig_file_.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("\"retries\": 2"), std::string::npos) << r.out;                        // a default
+  EXPECT_NE(r.out.find("\"profile_velocity_counts_s\": 90000"), std::string::npos) << r.out;  // a derived unit
+  EXPECT_NE(r.out.find("\"actual_position\": 8"), std::string::npos) << r.out;                // the register map
+  EXPECT_NE(r.out.find("config valid"), std::string::npos) << r.out;
+}
+
+TEST_F(RigCli, SelfTestPassesAgainstTheIndependentPeer) {
+  start_peer();
+  if (IsSkipped()) return;
+  const auto r = vdrig({"rig", "check", rig_file_.string(), "--self-test", "--runtime-dir", runtime_dir_});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("self-test passed"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("FAIL"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("PASS  frame at"), std::string::npos) << r.out;
+}
+
+TEST_F(RigCli, SelfTestCatchesAWordOrderMismatch) {
+  start_peer("--word-order high-first", "low-first");
+  if (IsSkipped()) return;
+  const auto r = vdrig({"rig", "check", rig_file_.string(), "--self-test", "--runtime-dir", runtime_dir_});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("FAIL  move pan"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("word_order"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("self-test FAILED"), std::string::npos) << r.out;
+}
+
+TEST_F(RigCli, HomeMovePositionAndShoot) {
+  start_peer();
+  if (IsSkipped()) return;
+  const std::vector<std::string> common = {"--rig", rig_file_.string(), "--runtime-dir", runtime_dir_};
+  auto run = [&](std::vector<std::string> args) {
+    args.insert(args.end(), common.begin(), common.end());
+    return vdrig(args);
+  };
+  const auto homed = run({"rig", "home"});
+  ASSERT_EQ(homed.exit_code, 0) << homed.out << homed.err;
+  const auto moved = run({"rig", "move", "--pan", "12.5", "--tilt", "30"});
+  ASSERT_EQ(moved.exit_code, 0) << moved.out << moved.err;
+  EXPECT_NE(moved.out.find("pan 12.5000 deg  tilt 30.0000 deg"), std::string::npos) << moved.out;
+  const auto at = run({"rig", "position"});
+  ASSERT_EQ(at.exit_code, 0) << at.out << at.err;
+  EXPECT_NE(at.out.find("pan 12.5000 deg  tilt 30.0000 deg"), std::string::npos) << at.out;
+  const fs::path png = dir_.path() / "frame.png";
+  const auto shot = run({"rig", "shoot", "--exposure", "0.01", "--out", png.string()});
+  ASSERT_EQ(shot.exit_code, 0) << shot.out << shot.err;
+  EXPECT_TRUE(fs::exists(png));
+  // Out of the tilt limits: a usage error, nothing moves.
+  const auto far = run({"rig", "move", "--pan", "0", "--tilt", "120"});
+  EXPECT_NE(far.exit_code, 0) << far.out << far.err;
+}
+
+TEST_F(RigCli, CaptureWithTheSimulatedCameraAgainstThePeer) {
+  start_peer();
+  if (IsSkipped()) return;
+  write_fast_capture_config();
+  const fs::path session = dir_.path() / "S";
+  const auto r = vdrig({"capture", "--rig", rig_file_.string(), "--scheme", "latlong:2", "--bracket", "fixed:0.01",
+                        "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_},
+                       120.0);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("100 %"), std::string::npos) << r.out;
+  auto reopened = Session::open(session);
+  ASSERT_TRUE(reopened) << reopened.error().describe();
+  EXPECT_EQ(reopened->completed_view_count(), static_cast<int>(reopened->manifest().views.size()));
+  // The peer's drives stand where the last view put them.
+  EXPECT_FALSE(peer_->moving(1));
+  EXPECT_FALSE(peer_->moving(2));
+}
+
+TEST_F(RigCli, CaptureFailingOnADriveFaultResumesWithNoViewLostOrDoubled) {
+  start_peer();
+  if (IsSkipped()) return;
+  write_fast_capture_config();
+  // The pan drive starts refusing commands while the first view's move runs: that move ends, the next is refused
+  // on every retry, and the capture stops with the fault.
+  ASSERT_TRUE(peer_->command("on_move 0.02 refuse 1"));
+  const fs::path session = dir_.path() / "S";
+  const auto failed = vdrig({"capture", "--rig", rig_file_.string(), "--scheme", "latlong:2", "--bracket", "fixed:0.01",
+                             "--out", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_,
+                             "--device-attempts", "2", "--backoff-s", "0.01"},
+                            60.0);
+  ASSERT_EQ(failed.exit_code, 1) << failed.out << failed.err;
+  EXPECT_NE(failed.err.find("pan drive (unit 1"), std::string::npos) << failed.err;
+  EXPECT_NE(failed.err.find("failed 2 times"), std::string::npos) << "--device-attempts 2:\n" << failed.err;
+  EXPECT_NE(failed.out.find("vdrig capture --resume " + session.string()), std::string::npos) << failed.out;
+  {
+    auto partial = Session::open(session);
+    ASSERT_TRUE(partial) << partial.error().describe();
+    EXPECT_LT(partial->completed_view_count(), static_cast<int>(partial->manifest().views.size()));
+  }
+  ASSERT_TRUE(peer_->command("clear"));
+  const auto resumed =
+      vdrig({"capture", "--resume", session.string(), "--reserve-mb", "0", "--runtime-dir", runtime_dir_}, 60.0);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.out << resumed.err;
+  auto done = Session::open(session);
+  ASSERT_TRUE(done) << done.error().describe();
+  EXPECT_EQ(done->completed_view_count(), static_cast<int>(done->manifest().views.size()));
+  // One frame file per view and exposure: nothing captured twice, nothing missing.
+  size_t frames = 0;
+  for (const auto& e : fs::recursive_directory_iterator(session / "frames"))
+    frames += e.is_regular_file() && e.path().extension() != ".tmp";
+  EXPECT_EQ(frames, done->manifest().views.size());
+}
+
+}  // namespace
+}  // namespace vdrig::capture
