@@ -2,7 +2,10 @@
 // table, the handlers) to a SessionRunner on a small simulated rig in a private sessions folder. Every reply must be
 // an object with a boolean "ok". After the lines the runner is shut down and the sessions folder emptied, so inputs
 // do not see each other's sessions.
+#include <chrono>
+#include <optional>
 #include <string_view>
+#include <thread>
 
 #include "daemon_protocol.hpp"
 #include "fuzz_support.hpp"
@@ -61,8 +64,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       input = end == std::string_view::npos ? std::string_view() : input.substr(end + 1);
       if (line.size() > config.max_line_bytes) continue;  // the server answers those itself (too_long)
       bool subscribed = false;
-      const json reply = protocol.answer(line, subscribed);
-      if (!reply.is_object() || !reply.contains("ok") || !reply["ok"].is_boolean()) std::abort();
+      std::optional<json> reply = protocol.answer(line, subscribed);
+      // A started home/move is answered when the stage stops (the simulated one takes milliseconds).
+      for (int wait_ms = 0; !reply && wait_ms < 10000; ++wait_ms) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        reply = protocol.take_deferred_reply();
+      }
+      if (!reply || !reply->is_object() || !reply->contains("ok") || !(*reply)["ok"].is_boolean()) std::abort();
       (void)runner.take_events();
     }
     runner.shutdown();
