@@ -84,8 +84,9 @@ Result<nlohmann::json> read_json_file(const fs::path& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(bytes.value());
-  } catch (const nlohmann::json::parse_error& e) {
-    // e.what() reads "[json.exception.parse_error.101] parse error at line L, column C: ...".
+  } catch (const nlohmann::json::exception& e) {
+    // Syntax errors are parse_error ("[json.exception.parse_error.101] parse error at line L, column C: ..."), but a
+    // number too large for a double ("1e999") is out_of_range.406: both are a corrupt file.
     return make_error(ErrorCode::kCorrupt, path.string() + ": not valid JSON: " + e.what());
   }
   if (!j.is_object())

@@ -59,6 +59,16 @@ TEST_F(FileRead, ParseErrorsNameLineAndColumnAndTheTopLevelMustBeAnObject) {
   EXPECT_NE(a.error().message.find("expected a JSON object"), std::string::npos) << a.error().message;
 }
 
+// Found by fuzz_manifest: nlohmann reports a number beyond a double's range as out_of_range.406, not as a
+// parse_error, and read_json_file let it escape (std::terminate).
+TEST_F(FileRead, ANumberBeyondADoublesRangeIsACorruptFileNotAnAbort) {
+  write(dir_ / "huge.json", R"({"format_version": 1e999})");
+  auto h = read_json_file(dir_ / "huge.json");
+  ASSERT_FALSE(h);
+  EXPECT_EQ(h.error().code, ErrorCode::kCorrupt);
+  EXPECT_NE(h.error().message.find("number overflow"), std::string::npos) << h.error().message;
+}
+
 TEST_F(FileRead, ImageReadersRefuseFifosAndDirectories) {
   ASSERT_EQ(::mkfifo((dir_ / "frame.png").c_str(), 0600), 0);
   auto png = read_png(dir_ / "frame.png");  // cv::imread blocked here, waiting for a writer
