@@ -561,7 +561,13 @@ Result<std::vector<StillFile>> Gphoto2Camera::trigger() {
       free(data);
       return fail(e, "waiting for the capture's files");
     }
-    if (type == GP_EVENT_FILE_ADDED && data) paths.push_back(*static_cast<CameraFilePath*>(data));
+    if (type == GP_EVENT_FILE_ADDED && data) {
+      const auto* added = static_cast<const CameraFilePath*>(data);
+      const bool known = std::any_of(paths.begin(), paths.end(), [&](const CameraFilePath& p) {
+        return std::strcmp(p.name, added->name) == 0 && std::strcmp(p.folder, added->folder) == 0;
+      });
+      if (!known) paths.push_back(*added);  // some drivers announce the captured file again
+    }
     free(data);  // libgphoto2 hands the event's data over (malloc'd)
     if (type == GP_EVENT_CAPTURE_COMPLETE || type == GP_EVENT_TIMEOUT) break;
   }
