@@ -116,9 +116,8 @@ class Gphoto2Camera final : public StillCamera {
   /// Files in `folder` on the camera (gp_camera_folder_list_files), for collect() and the tests.
   Result<std::vector<StillFile>> list_files(const std::string& folder);
 
-  struct Impl;  // libgphoto2 handles, in the .cpp (its headers stay private to it)
-
  private:
+  struct Impl;  // libgphoto2's handles, in the .cpp (its headers stay private to it)
   explicit Gphoto2Camera(Gphoto2Config config);
   bool connected() const override;
   Status connect() override;
