@@ -507,8 +507,9 @@ Status Gphoto2Camera::connect() {
     }
   if (shutter)
     if (const auto v = parse_shutter_label(shutter->value)) used_.exposure_s = *v;
+  const auto& iso_names = config_names(StillSetting::kIso);
   for (const ConfigEntry& e : config_entries_)  // a read-only ISO still tells the gain used
-    if (e.name == "iso")
+    if (std::find(iso_names.begin(), iso_names.end(), e.name) != iso_names.end())
       if (const auto v = parse_iso_label(e.value)) used_.gain = *v / config_.base_iso;
   CameraAbilities a;
   const bool can_capture =
