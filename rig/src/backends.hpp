@@ -12,5 +12,6 @@ void register_gpiod_backends(BackendRegistry& registry);     // stage: gpio-step
 void register_v4l2_backend(BackendRegistry& registry);       // camera: v4l2
 void register_libcamera_backend(BackendRegistry& registry);  // camera: libcamera
 void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (PTP over libusb)
+void register_gphoto2_backend(BackendRegistry& registry);    // camera: gphoto2 (libgphoto2)
 
 }  // namespace vdrig::rig

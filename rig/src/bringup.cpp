@@ -17,6 +17,9 @@
 #ifdef VDRIG_HAVE_USB
 #include "usb_ptp_camera.hpp"
 #endif
+#ifdef VDRIG_HAVE_GPHOTO2
+#include "gphoto2_camera.hpp"
+#endif
 
 namespace vdrig::rig {
 namespace {
@@ -126,6 +129,23 @@ json effective(const UsbPtpConfig& c) {
 }
 #endif
 
+#ifdef VDRIG_HAVE_GPHOTO2
+json effective(const Gphoto2Config& c) {
+  using T = Gphoto2Config::Target;
+  return {{"backend", "gphoto2"},
+          {"model", c.model.empty() ? "autodetect" : c.model},
+          {"port", c.port.empty() ? "autodetect" : c.port},
+          {"index", c.index},
+          {"capture_target", c.capture_target == T::kRam    ? "ram"
+                             : c.capture_target == T::kCard ? "card"
+                                                            : "camera"},
+          {"keep_on_card", c.keep_on_card},
+          {"base_iso", c.base_iso},
+          {"aperture", c.aperture ? json(*c.aperture) : json("as set on the camera")},
+          {"event_grace_s", c.event_grace_s}};
+}
+#endif
+
 /// The effective settings of a hardware backend's section, or its problems; nullopt when rig has no parser for it
 /// that runs without the device.
 template <typename Config>
@@ -149,6 +169,9 @@ std::optional<json> parse_section(const std::string& kind, const std::string& ba
 #endif
 #ifdef VDRIG_HAVE_USB
   if (kind == "camera" && backend == "usb-ptp") return parsed(UsbPtpConfig::parse(section), problems);
+#endif
+#ifdef VDRIG_HAVE_GPHOTO2
+  if (kind == "camera" && backend == "gphoto2") return parsed(Gphoto2Config::parse(section), problems);
 #endif
   (void)section;
   (void)problems;

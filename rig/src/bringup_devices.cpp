@@ -19,6 +19,9 @@
 #ifdef VDRIG_HAVE_LIBCAMERA
 #include "libcamera_camera.hpp"
 #endif
+#ifdef VDRIG_HAVE_GPHOTO2
+#include "gphoto2_camera.hpp"
+#endif
 
 namespace vdrig::rig {
 namespace {
@@ -112,6 +115,21 @@ DeviceKind usb_ptp_cameras() {
   return k;
 }
 
+DeviceKind gphoto2_cameras() {
+  DeviceKind k{"gphoto2 cameras (libgphoto2)", {}, ""};
+#ifdef VDRIG_HAVE_GPHOTO2
+  auto cameras = list_gphoto2_cameras();
+  if (!cameras)
+    k.note = cameras.error().message;
+  else
+    for (const auto& c : cameras.value())  // the model and port a "gphoto2" camera section takes
+      k.devices.push_back({c.port, "model \"" + c.model + "\""});
+#else
+  k.note = "gphoto2 backend not built";
+#endif
+  return k;
+}
+
 std::string read_line(const fs::path& file) {
   std::ifstream in(file);
   std::string line;
@@ -171,7 +189,7 @@ DeviceKind gpio_chips() {
 }  // namespace
 
 std::vector<DeviceKind> list_devices() {
-  return {v4l2_cameras(), libcamera_cameras(), usb_ptp_cameras(), serial_ports(), gpio_chips()};
+  return {v4l2_cameras(), libcamera_cameras(), usb_ptp_cameras(), gphoto2_cameras(), serial_ports(), gpio_chips()};
 }
 
 }  // namespace vdrig::rig

@@ -20,6 +20,9 @@ void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
 #ifdef VDRIG_HAVE_USB
   register_usb_ptp_backend(registry);
 #endif
+#ifdef VDRIG_HAVE_GPHOTO2
+  register_gphoto2_backend(registry);
+#endif
 }
 
 }  // namespace vdrig::rig

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "still_camera.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::rig::ptp {
@@ -420,11 +421,9 @@ std::optional<int64_t> PropDesc::nearest(double want) const {
   } else {
     if (current > 0) candidates.push_back(current);  // no form: the current value is all we know is valid
   }
-  if (candidates.empty()) return std::nullopt;
-  const double lw = std::log(want);
-  return *std::min_element(candidates.begin(), candidates.end(), [&](int64_t a, int64_t b) {
-    return std::abs(std::log(double(a)) - lw) < std::abs(std::log(double(b)) - lw);
-  });
+  const auto i = nearest_stop(std::vector<double>(candidates.begin(), candidates.end()), want);
+  if (!i) return std::nullopt;
+  return candidates[*i];
 }
 
 // ---- session ----

@@ -1,11 +1,8 @@
 #include "usb_ptp_camera.hpp"
 
 #include <libusb.h>
-#include <time.h>
-
 #include <cmath>
 #include <cstdio>
-#include <opencv2/imgcodecs.hpp>
 #include <thread>
 
 #include "backends.hpp"
@@ -46,12 +43,6 @@ std::string hex4(uint16_t v) {
   char buf[8];
   std::snprintf(buf, sizeof buf, "%04x", v);
   return buf;
-}
-
-int64_t realtime_ns() {
-  timespec t;
-  clock_gettime(CLOCK_REALTIME, &t);
-  return static_cast<int64_t>(t.tv_sec) * 1000000000LL + t.tv_nsec;
 }
 
 // ---- libusb transport ----
@@ -311,12 +302,15 @@ Result<std::unique_ptr<Camera>> UsbPtpCamera::create(const nlohmann::json& setti
 Result<std::unique_ptr<UsbPtpCamera>> UsbPtpCamera::create_with(UsbPtpConfig config, PtpTransportFactory open_transport,
                                                                 ptp::SessionOptions options) {
   std::unique_ptr<UsbPtpCamera> cam(new UsbPtpCamera(std::move(config), std::move(open_transport), options));
-  VDRIG_TRY(cam->open());
+  VDRIG_TRY(cam->connect());
   return cam;
 }
 
 UsbPtpCamera::UsbPtpCamera(UsbPtpConfig config, PtpTransportFactory open_transport, ptp::SessionOptions options)
-    : config_(std::move(config)), open_transport_(std::move(open_transport)), options_(options) {}
+    : StillCamera("usb-ptp", config.keep_on_card),
+      config_(std::move(config)),
+      open_transport_(std::move(open_transport)),
+      options_(options) {}
 
 UsbPtpCamera::~UsbPtpCamera() { drop(); }
 
@@ -342,8 +336,7 @@ std::string UsbPtpCamera::name() const {
   return n.empty() ? "PTP camera" : n;
 }
 
-Status UsbPtpCamera::open() {
-  if (session_) return Status::ok();
+Status UsbPtpCamera::connect() {
   auto t = open_transport_();
   if (!t) return t.error();
   transport_ = std::move(t.value());
@@ -382,31 +375,15 @@ Status UsbPtpCamera::open() {
       info_.max_exposure_s = *hi * 1e-4;
     }
     if (exposure_desc_->current > 0 && exposure_desc_->current != 0xFFFFFFFF)
-      used_exposure_s_ = exposure_desc_->current * 1e-4;
+      used_.exposure_s = exposure_desc_->current * 1e-4;
   }
-  if (iso_desc_ && iso_desc_->current > 0) used_gain_ = iso_desc_->current / config_.base_iso;
+  if (iso_desc_ && iso_desc_->current > 0) used_.gain = iso_desc_->current / config_.base_iso;
   log::get("rig")->info("usb-ptp: {} (serial {}), {} operations; exposure {}, ISO {}, capture {}", info_.model,
                         device_info_.serial_number, device_info_.operations.size(),
                         exposure_desc_ ? (exposure_desc_->writable ? "settable" : "read-only") : "absent",
                         iso_desc_ ? (iso_desc_->writable ? "settable" : "read-only") : "absent",
                         device_info_.supports_operation(ptp::kInitiateCapture) ? "yes" : "NO");
-  if (exposure_asked_) return apply_exposure();  // reconnected: the camera may have forgotten
   return Status::ok();
-}
-
-Result<CameraInfo> UsbPtpCamera::info() {
-  VDRIG_TRY(open());
-  return info_;
-}
-
-Status UsbPtpCamera::set_exposure(double exposure_s, double gain) {
-  if (!(exposure_s > 0.0) || !(gain > 0.0))
-    return make_error(ErrorCode::kInvalidArgument, "usb-ptp: exposure and gain must be positive");
-  exposure_s_ = exposure_s;
-  gain_ = gain;
-  exposure_asked_ = true;
-  VDRIG_TRY(open());
-  return apply_exposure();
 }
 
 Status UsbPtpCamera::apply_exposure() {
@@ -417,90 +394,63 @@ Status UsbPtpCamera::apply_exposure() {
     return make_error(ErrorCode::kUnsupported, "usb-ptp: " + name() +
                                                    " reports ExposureTime as read-only (is the mode dial on manual "
                                                    "\"M\"?)");
-  const auto units = exposure_desc_->nearest(exposure_s_ * 1e4);  // ExposureTime counts 0.1 ms
+  const auto units = exposure_desc_->nearest(asked_.exposure_s * 1e4);  // ExposureTime counts 0.1 ms
   if (!units) return make_error(ErrorCode::kUnsupported, "usb-ptp: the camera lists no usable exposure time");
   if (*units != exposure_desc_->current) {
     if (Status s = session_->set_prop_value(ptp::kExposureTime, exposure_desc_->data_type, *units); !s)
       return failed(s.error());
     exposure_desc_->current = *units;
   }
-  used_exposure_s_ = *units * 1e-4;
-  if (std::abs(used_exposure_s_ - exposure_s_) > 0.01 * exposure_s_)
-    log::get("rig")->debug("usb-ptp: exposure {} s taken as {} s (nearest the camera offers)", exposure_s_,
-                           used_exposure_s_);
+  used_.exposure_s = *units * 1e-4;
 
   if (iso_desc_ && iso_desc_->writable) {
-    const auto iso = iso_desc_->nearest(gain_ * config_.base_iso);
+    const auto iso = iso_desc_->nearest(asked_.gain * config_.base_iso);
     if (iso && *iso != iso_desc_->current) {
       if (Status s = session_->set_prop_value(ptp::kExposureIndex, iso_desc_->data_type, *iso); !s)
         return failed(s.error());
       iso_desc_->current = *iso;
     }
-    if (iso) used_gain_ = *iso / config_.base_iso;
+    if (iso) used_.gain = *iso / config_.base_iso;
   } else {
-    used_gain_ = iso_desc_ && iso_desc_->current > 0 ? iso_desc_->current / config_.base_iso : 1.0;
-    if (std::abs(used_gain_ - gain_) > 0.01 * gain_)
-      log::get("rig")->warn("usb-ptp: ISO cannot be set on {}; gain {} asked, {} used", name(), gain_, used_gain_);
+    used_.gain = iso_desc_ && iso_desc_->current > 0 ? iso_desc_->current / config_.base_iso : 1.0;
+    if (std::abs(used_.gain - asked_.gain) > 0.01 * asked_.gain)
+      log::get("rig")->warn("usb-ptp: ISO cannot be set on {}; gain {} asked, {} used", name(), asked_.gain,
+                            used_.gain);
   }
   return Status::ok();
 }
 
-Result<Frame> UsbPtpCamera::capture() {
-  VDRIG_TRY(open());
+Result<std::vector<StillFile>> UsbPtpCamera::trigger() {
   if (!device_info_.supports_operation(ptp::kInitiateCapture))
     return make_error(ErrorCode::kUnsupported,
                       "usb-ptp: " + name() +
                           " does not offer InitiateCapture (0x100E): it cannot be triggered over standard PTP (many "
-                          "cameras need a vendor extension for that; try gphoto2)");
-  Frame f;
-  f.timestamp_ns = realtime_ns();  // the shutter opens some time after InitiateCapture: an estimate
-  const int timeout_ms = static_cast<int>(std::lround((config_.capture_timeout_s + used_exposure_s_) * 1000.0));
+                          "cameras need a vendor extension for that; try the gphoto2 backend)");
+  const int timeout_ms = static_cast<int>(std::lround((config_.capture_timeout_s + used_.exposure_s) * 1000.0));
   auto handles = session_->capture(timeout_ms, static_cast<int>(std::lround(config_.complete_grace_s * 1000.0)));
   if (!handles) return failed(handles.error());
-
-  // RAW+JPEG gives two objects: take the first one OpenCV can decode.
-  std::optional<uint32_t> chosen;
-  ptp::ObjectInfo chosen_info;
+  // RAW+JPEG gives two objects: StillCamera takes the first one OpenCV can decode.
+  std::vector<StillFile> files;
   for (uint32_t h : *handles) {
     auto oi = session_->get_object_info(h);
     if (!oi) return failed(oi.error());
-    if (!chosen && is_image_format(oi->format)) {
-      chosen = h;
-      chosen_info = oi.value();
-    }
+    StillFile f;
+    f.name = oi->filename.empty() ? "object " + std::to_string(h) : oi->filename;
+    f.handle = h;
+    f.decodable = is_image_format(oi->format);
+    f.size_bytes = oi->compressed_size == 0xFFFFFFFF ? 0 : oi->compressed_size;
+    files.push_back(std::move(f));
   }
-  const auto delete_all = [&] {
-    if (config_.keep_on_card || !device_info_.supports_operation(ptp::kDeleteObject)) return;
-    for (uint32_t h : *handles)
-      if (Status s = session_->delete_object(h); !s)
-        log::get("rig")->warn("usb-ptp: cannot delete object {:#x} from the card: {}", h, s.error().message);
-  };
-  if (!chosen) {
-    delete_all();
-    return make_error(ErrorCode::kUnsupported,
-                      "usb-ptp: the camera stored no JPEG/TIFF/PNG (RAW only?); set its image quality to JPEG");
-  }
-  auto bytes = session_->get_object(*chosen);
-  if (!bytes) return failed(bytes.error());
-  if (chosen_info.compressed_size != 0xFFFFFFFF && bytes->size() != chosen_info.compressed_size)
-    return failed(make_error(ErrorCode::kCorrupt, "usb-ptp: object of " + std::to_string(bytes->size()) +
-                                                      " bytes where ObjectInfo said " +
-                                                      std::to_string(chosen_info.compressed_size)));
-  delete_all();
-  // The camera's orientation tag would rotate the picture whenever the rig tilts it: keep the sensor's frame.
-  cv::Mat image = cv::imdecode(bytes.value(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
-  if (image.empty())
-    return make_error(ErrorCode::kCorrupt, "usb-ptp: object " + chosen_info.filename + " (" +
-                                               std::to_string(bytes->size()) + " bytes) does not decode");
-  info_.width = image.cols;
-  info_.height = image.rows;
-  f.image = std::move(image);
-  f.exposure_s = used_exposure_s_;
-  f.gain = used_gain_;
-  f.bits = 8;
-  f.sequence = captures_++;
-  return f;
+  return files;
 }
+
+Result<std::vector<uint8_t>> UsbPtpCamera::download(const StillFile& file) {
+  auto bytes = session_->get_object(file.handle);
+  if (!bytes) return failed(bytes.error());
+  return bytes;
+}
+
+Status UsbPtpCamera::remove(const StillFile& file) { return session_->delete_object(file.handle); }
 
 void register_usb_ptp_backend(BackendRegistry& registry) {
   registry.add_camera("usb-ptp",

@@ -9,7 +9,8 @@
 //   ObjectAdded), "keep_on_card" (false: each photo is deleted from the camera once downloaded), "base_iso" (100:
 //   gain 1 is this ISO; gain g asks for ISO g * base_iso), "busy_retries" (20: DeviceBusy answers tolerated).
 // set_exposure() picks the supported ExposureTime (and ISO) nearest in stops and capture() reports what was used.
-// kDisconnected when the camera went away; the next call reopens it.
+// kDisconnected when the camera went away; the next call reopens it. The capture flow (download, decode, delete) and
+// its errors are StillCamera's (still_camera.hpp), shared with the gphoto2 backend.
 #pragma once
 
 #include <functional>
@@ -20,7 +21,7 @@
 #include <vector>
 
 #include "ptp_protocol.hpp"
-#include "vdrig/rig/devices.hpp"
+#include "still_camera.hpp"
 
 namespace vdrig::rig {
 
@@ -53,7 +54,7 @@ using PtpTransportFactory = std::function<Result<std::unique_ptr<ptp::PtpTranspo
 /// libusb transport to the `config.index`-th matching still camera (kNotFound when there is none).
 Result<std::unique_ptr<ptp::PtpTransport>> open_usb_ptp_transport(const UsbPtpConfig& config);
 
-class UsbPtpCamera final : public Camera {
+class UsbPtpCamera final : public StillCamera {
  public:
   /// Parses the settings and opens the camera over USB. kNotFound when no matching still camera is attached.
   static Result<std::unique_ptr<Camera>> create(const nlohmann::json& settings);
@@ -63,22 +64,25 @@ class UsbPtpCamera final : public Camera {
   ~UsbPtpCamera() override;
 
   std::string backend() const override { return "usb-ptp"; }
-  /// Model from GetDeviceInfo; width/height of the last photograph (0 before the first); exposure range from the
-  /// camera's ExposureTime description; auto_exposure_on when ExposureTime cannot be set.
-  Result<CameraInfo> info() override;
-  Status set_exposure(double exposure_s, double gain) override;
-  Result<Frame> capture() override;
+  // info(): model from GetDeviceInfo; width/height of the last photograph (0 before the first); exposure range from
+  // the camera's ExposureTime description; auto_exposure_on when ExposureTime cannot be set.
 
   /// What the camera reported at open (empty before).
   const ptp::DeviceInfo& device_info() const { return device_info_; }
 
  private:
   UsbPtpCamera(UsbPtpConfig config, PtpTransportFactory open_transport, ptp::SessionOptions options);
-  Status open();
+  bool connected() const override { return session_ != nullptr; }
+  Status connect() override;
+  Status apply_exposure() override;
+  Result<std::vector<StillFile>> trigger() override;
+  Result<std::vector<uint8_t>> download(const StillFile& file) override;
+  Status remove(const StillFile& file) override;
+  bool can_remove() const override { return device_info_.supports_operation(ptp::kDeleteObject); }
+  Error link_error(Error e) override { return failed(std::move(e)); }
   void drop();
   /// Drops the session after errors that leave the USB stream out of step, so the next call reopens.
   Error failed(Error e);
-  Status apply_exposure();
   std::string name() const;
 
   UsbPtpConfig config_;
@@ -88,11 +92,6 @@ class UsbPtpCamera final : public Camera {
   std::unique_ptr<ptp::PtpSession> session_;
   ptp::DeviceInfo device_info_;
   std::optional<ptp::PropDesc> exposure_desc_, iso_desc_;
-  CameraInfo info_;
-  bool exposure_asked_ = false;
-  double exposure_s_ = 0.01, gain_ = 1.0;           // what was asked
-  double used_exposure_s_ = 0.0, used_gain_ = 1.0;  // what the camera took (0: unknown)
-  uint64_t captures_ = 0;
 };
 
 }  // namespace vdrig::rig

@@ -66,8 +66,8 @@ class RigCli : public ::testing::Test {
 TEST_F(RigCli, DevicesListsEveryKindAndSaysNoneFound) {
   const auto r = vdrig({"rig", "devices"});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* kind :
-       {"V4L2 cameras:", "libcamera cameras:", "USB PTP still cameras:", "serial ports", "GPIO chips"})
+  for (const char* kind : {"V4L2 cameras:", "libcamera cameras:", "USB PTP still cameras:", "gphoto2 cameras",
+                           "serial ports", "GPIO chips"})
     EXPECT_NE(r.out.find(kind), std::string::npos) << kind << " missing from:\n" << r.out;
 }
 
