@@ -181,9 +181,10 @@ std::string undetermined_combination(const Eigen::MatrixXd& J) {
   std::string what;
   for (int c = 0; c < v.size(); ++c) {
     if (std::abs(v(c)) < 0.1) continue;
-    if (!what.empty()) what += " + ";
+    const double w = what.empty() ? v(c) : std::abs(v(c));
+    if (!what.empty()) what += v(c) < 0 ? " - " : " + ";
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%.2f %s", v(c), kParamNames[c]);
+    std::snprintf(buf, sizeof buf, "%.2f %s", w, kParamNames[c]);
     what += buf;
   }
   return what;
