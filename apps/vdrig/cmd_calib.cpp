@@ -195,6 +195,11 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
         "%.4f / %.4f deg (rotation across / about the optical axis), %.3f / %.3f mm (translation across / along)\n",
         k.rms_translation_mm, k.rms_rotation_deg, k.max_rotation_deg, k.noise_rotation_xy_deg, k.noise_rotation_z_deg,
         k.noise_translation_xy_mm, k.noise_translation_z_mm);
+    if (!k.downweighted_views.empty()) {
+      std::printf("views weighed less (residuals beyond the noise, chi-square > 16):");
+      for (int v : k.downweighted_views) std::printf(" %d", v);
+      std::printf("\n");
+    }
   }
   std::printf("wrote %s and %s\n", session->layout().camera_file().c_str(), session->layout().views_file().c_str());
   return Status::ok();
