@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/calib/intrinsics.hpp"
+#include "vdrig/calib/kinematic.hpp"
 #include "vdrig/calib/response_recovery.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
@@ -168,12 +169,37 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
   std::printf("%d of %zu views usable (max error %.3f px)\n", cal->usable_views, cal->views.views.size(), max_error_px);
   if (cal->kinematics) {
     const auto& k = *cal->kinematics;
-    const Vec3d& o = k.geometry.surface_offset_mm;
+    const rig::model::Params p = rig::model::to_params(k.geometry);
+    // name, unit, factor from the model's units (mm, rad) to the printed ones
+    const struct {
+      const char* name;
+      const char* unit;
+      double scale;
+    } rows[rig::model::kParamCount] = {{"camera distance", "mm", 1.0},
+                                       {"surface offset x", "mm", 1.0},
+                                       {"surface offset y", "mm", 1.0},
+                                       {"surface offset z", "mm", 1.0},
+                                       {"pan zero", "deg", rad_to_deg(1.0)},
+                                       {"tilt zero", "deg", rad_to_deg(1.0)},
+                                       {"pan axis tilt x", "deg", rad_to_deg(1.0)},
+                                       {"pan axis tilt y", "deg", rad_to_deg(1.0)}};
+    std::printf("rig kinematics (fitted +- standard deviation%s):\n",
+                k.sigma ? "" : "; the covariance could not be computed");
+    for (int i = 0; i < rig::model::kParamCount; ++i) {
+      std::printf("  %-17s %11.4f", rows[i].name, p[i] * rows[i].scale);
+      if (k.sigma) std::printf(" +- %.4f", (*k.sigma)[i] * rows[i].scale);
+      std::printf(" %s\n", rows[i].unit);
+    }
     std::printf(
-        "rig: camera distance %.2f mm, surface offset (%.2f, %.2f, %.2f) mm; departure of the measured poses "
-        "from the model: rms %.3f mm, %.4f deg (max %.4f deg)\n",
-        k.geometry.camera_distance_mm, o.x(), o.y(), o.z(), k.rms_translation_mm, k.rms_rotation_deg,
-        k.max_rotation_deg);
+        "departure of the measured poses from the model: rms %.3f mm, %.4f deg (max %.4f deg); noise estimated "
+        "%.4f / %.4f deg (rotation across / about the optical axis), %.3f / %.3f mm (translation across / along)\n",
+        k.rms_translation_mm, k.rms_rotation_deg, k.max_rotation_deg, k.noise_rotation_xy_deg, k.noise_rotation_z_deg,
+        k.noise_translation_xy_mm, k.noise_translation_z_mm);
+    if (!k.downweighted_views.empty()) {
+      std::printf("views weighed less (residuals beyond the noise, chi-square > 16):");
+      for (int v : k.downweighted_views) std::printf(" %d", v);
+      std::printf("\n");
+    }
   }
   std::printf("wrote %s and %s\n", session->layout().camera_file().c_str(), session->layout().views_file().c_str());
   return Status::ok();

@@ -389,10 +389,15 @@ std::string calibration_section(const ReportData& d) {
   if (views->kinematics.is_null()) {
     body += missing("the kinematic fit (fewer than two usable views)");
   } else {
-    body += "<p>Kinematic fit of the rig:</p><table>";
+    body += "<p>Kinematic fit of the rig (± standard deviation):</p><table>";
+    const nlohmann::json& sigma = views->kinematics.contains("sigma") ? views->kinematics["sigma"] : nlohmann::json();
     for (const auto& [key, value] : views->kinematics.items())
-      if (!value.is_array() && !value.is_object())
-        body += "<tr><th>" + escape(key) + "</th><td>" + escape(value.dump()) + "</td></tr>";
+      if (!value.is_array() && !value.is_object()) {
+        std::string cell = value.dump();
+        if (sigma.is_object() && sigma.contains(key) && sigma[key].is_number())
+          cell += " ± " + format("%.2g", sigma[key].get<double>());
+        body += "<tr><th>" + escape(key) + "</th><td>" + escape(cell) + "</td></tr>";
+      }
     body += "</table>\n";
   }
   return section("calibration", "Calibration", body);

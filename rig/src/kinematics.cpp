@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vdrig/rig/kinematics_model.hpp"
+
 namespace vdrig::rig {
 namespace {
 
@@ -29,12 +31,9 @@ std::optional<double> wrap_into(double angle, const AxisSpec& axis, double prefe
 Mat3d platform_rotation(const PanTilt& pt) { return rot_x(pt.tilt_rad) * rot_z(pt.pan_rad); }
 
 ViewPose surface_pose(const RigGeometry& g, const PanTilt& pt) {
-  const Mat3d R_cw = Vec3d(1, -1, -1).asDiagonal();
-  const Mat3d R_ws = platform_rotation(pt);
-  const Vec3d C(0, 0, g.camera_distance_mm);
+  const model::Params p = model::to_params(g);
   ViewPose pose;
-  pose.R = R_cw * R_ws;
-  pose.t = R_cw * (R_ws * g.surface_offset_mm - C);
+  model::surface_pose(p.data(), pt, &pose.R, &pose.t);
   return pose;
 }
 
@@ -46,14 +45,17 @@ Vec3d view_direction(const RigGeometry& g, const PanTilt& pt) {
 std::optional<PanTilt> inverse_kinematics(const RigGeometry& g, const StageSpec& spec, const Vec3d& direction,
                                           double preferred_pan_rad) {
   if (!direction.allFinite() || !(direction.norm() > 0.0) || !(g.camera_distance_mm > 0.0)) return std::nullopt;
-  const Vec3d d = direction.normalized();
-  // The camera centre in the surface frame is D u(pan, tilt) - offset, where u = (sin tilt sin pan,
-  // sin tilt cos pan, cos tilt) is the ideal view direction and D the camera distance (see surface_pose). Seeing
-  // the surface origin from d means D u = offset + lambda d with lambda > 0 and |D u| = D:
-  //   lambda^2 + 2 lambda (offset . d) + |offset|^2 - D^2 = 0,
+  // In the platter frame (kinematics.hpp) the camera centre is D u(pan, tilt), u = (sin tilt sin pan, sin tilt cos pan,
+  // cos tilt) the ideal view direction at the true axis angles and D the camera distance, and the surface origin is
+  // the offset o; the surface's direction d is A d there. Seeing the surface origin from d means
+  // D u = o + lambda A d with lambda > 0 and |D u| = D:
+  //   lambda^2 + 2 lambda (o . A d) + |o|^2 - D^2 = 0,
   // whose larger root is the only positive one while the surface origin is inside the camera's sphere. This is
   // closed form: an earlier fixed-point iteration on (azimuth, zenith) diverged near the normal, where azimuth is
-  // ill-conditioned (errors of tens of degrees within a few degrees of the pole).
+  // ill-conditioned (errors of tens of degrees within a few degrees of the pole). The encoder zeros then turn the
+  // true angles into readings.
+  const model::Params p = model::to_params(g);
+  const Vec3d d = model::surface_in_platter(p.data()) * direction.normalized();
   Vec3d u = d;
   const Vec3d& o = g.surface_offset_mm;
   if (!o.isZero()) {
@@ -68,8 +70,9 @@ std::optional<PanTilt> inverse_kinematics(const RigGeometry& g, const StageSpec&
   const SphericalDir s = spherical_from_direction(u);
   // Two solutions: (pan, tilt) and (pan + pi, -tilt). Try the positive tilt first.
   for (int branch = 0; branch < 2; ++branch) {
-    const double tilt = branch == 0 ? s.zenith_rad : -s.zenith_rad;
-    const double pan = s.zenith_rad < 1e-9 ? preferred_pan_rad : kPi / 2.0 - s.azimuth_rad + (branch == 0 ? 0.0 : kPi);
+    const double tilt = (branch == 0 ? s.zenith_rad : -s.zenith_rad) + g.tilt_zero_rad;
+    const double pan = s.zenith_rad < 1e-9 ? preferred_pan_rad
+                                           : kPi / 2.0 - s.azimuth_rad + (branch == 0 ? 0.0 : kPi) + g.pan_zero_rad;
     const auto pan_ok = wrap_into(pan, spec.pan, preferred_pan_rad);
     if (!pan_ok || tilt < spec.tilt.min_rad - 1e-12 || tilt > spec.tilt.max_rad + 1e-12) continue;
     // Clamped: a target 1e-12 past a limit would be refused by a stage that checks its limits strictly.

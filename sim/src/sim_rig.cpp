@@ -89,13 +89,19 @@ void read_stage(Settings& parent, const json& section, rig::StageSpec& stage) {
 Result<SimConfig> SimConfig::from_json(const json& j) {
   SimConfig c;
   Settings s(j, "sim");
-  s.reject_unknown({"scene", "distance_mm", "surface_offset_mm", "samples_per_axis", "time_scale", "seed", "camera",
-                    "stage", "faults"});
+  s.reject_unknown({"scene", "distance_mm", "surface_offset_mm", "pan_zero_deg", "tilt_zero_deg", "pan_axis_tilt_deg",
+                    "samples_per_axis", "time_scale", "seed", "camera", "stage", "faults"});
   c.scene = s.string("scene", c.scene);
   c.geometry.camera_distance_mm = s.number("distance_mm", c.geometry.camera_distance_mm);
   const Vec3d& o = c.geometry.surface_offset_mm;
   const std::vector<double> offset = s.number_list("surface_offset_mm", {o.x(), o.y(), o.z()}, 3);
   c.geometry.surface_offset_mm = Vec3d(offset[0], offset[1], offset[2]);
+  // An imperfect rig (rig/kinematics.hpp): the stage reports encoder readings, the platform moves by the true angles.
+  c.geometry.pan_zero_rad = deg_to_rad(s.number("pan_zero_deg", 0.0));
+  c.geometry.tilt_zero_rad = deg_to_rad(s.number("tilt_zero_deg", 0.0));
+  const std::vector<double> axis_tilt = s.number_list("pan_axis_tilt_deg", {0.0, 0.0}, 2);
+  c.geometry.pan_axis_tilt_x_rad = deg_to_rad(axis_tilt[0]);
+  c.geometry.pan_axis_tilt_y_rad = deg_to_rad(axis_tilt[1]);
   c.samples_per_axis = read_int(s, "samples_per_axis", c.samples_per_axis);
   c.time_scale = s.number("time_scale", c.time_scale);
   c.sensor.seed = s.unsigned_integer("seed", c.sensor.seed);
@@ -122,6 +128,12 @@ bool SimConfig::is_valid(std::string* why) const {
   if (!(geometry.camera_distance_mm > 0)) return fail("distance_mm must be positive");
   if (!geometry.surface_offset_mm.allFinite() || geometry.surface_offset_mm.norm() >= geometry.camera_distance_mm)
     return fail("surface_offset_mm must be finite and nearer the axes than the camera");
+  // Zeros within half a turn; an axis tilt under 10 deg (beyond that a rig is broken, not miscalibrated).
+  if (!(std::abs(geometry.pan_zero_rad) <= kPi) || !(std::abs(geometry.tilt_zero_rad) <= kPi))
+    return fail("pan_zero_deg and tilt_zero_deg must be within +-180");
+  if (!(std::abs(geometry.pan_axis_tilt_x_rad) <= deg_to_rad(10.0)) ||
+      !(std::abs(geometry.pan_axis_tilt_y_rad) <= deg_to_rad(10.0)))
+    return fail("pan_axis_tilt_deg must be within +-10 deg");
   if (!(faults.slow_write_ms >= 0)) return fail("faults.slow_write_ms must be >= 0");
   for (const auto* list :
        {&faults.move_timeout_at, &faults.drive_error_at, &faults.drop_frame_at, &faults.disconnect_camera_at})

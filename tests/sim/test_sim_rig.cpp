@@ -127,6 +127,44 @@ TEST(SimCamera, FramesAreTheRenderedSceneAtTheStagePoseWithTheSurfaceOffset) {
   EXPECT_GT(cv::norm(frame->image, centred, cv::NORM_INF), 100.0);
 }
 
+TEST(SimConfig, ImperfectRigKeys) {
+  auto c = SimConfig::from_json({{"pan_zero_deg", 0.3}, {"tilt_zero_deg", -0.2}, {"pan_axis_tilt_deg", {0.5, -0.1}}});
+  ASSERT_TRUE(c) << c.error().describe();
+  EXPECT_NEAR(c->geometry.pan_zero_rad, deg_to_rad(0.3), 1e-15);
+  EXPECT_NEAR(c->geometry.tilt_zero_rad, deg_to_rad(-0.2), 1e-15);
+  EXPECT_NEAR(c->geometry.pan_axis_tilt_x_rad, deg_to_rad(0.5), 1e-15);
+  EXPECT_NEAR(c->geometry.pan_axis_tilt_y_rad, deg_to_rad(-0.1), 1e-15);
+  for (const json& bad : {json{{"pan_axis_tilt_deg", {20, 0}}}, json{{"pan_axis_tilt_deg", {1}}},
+                          json{{"pan_zero_deg", 400}}, json{{"tilt_zero_deg", "0.3"}}}) {
+    auto r = SimConfig::from_json(bad);
+    EXPECT_FALSE(r) << bad.dump();
+  }
+}
+
+TEST(SimCamera, AnImperfectRigReportsReadingsAndShowsTheTrueAngles) {
+  // Encoder zeros: the stage reads back what it was told (the encoder), the platform stands at reading - zero.
+  const json section = small_sim(
+      {{"pan_zero_deg", 4.0},
+       {"tilt_zero_deg", -3.0},
+       {"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"response", "linear"}, {"bits", 12}}}});
+  rig::Rig r = make(section);
+  const PanTilt pt{deg_to_rad(30), deg_to_rad(45)};
+  ASSERT_TRUE(r.stage->move_to(pt));
+  ASSERT_TRUE(r.camera->set_exposure(0.8, 1.0));
+  auto frame = r.camera->capture();
+  ASSERT_TRUE(frame) << frame.error().describe();
+  EXPECT_EQ(frame->measured.pan_rad, pt.pan_rad);
+  EXPECT_EQ(frame->measured.tilt_rad, pt.tilt_rad);
+  const SimConfig c = SimConfig::from_json(section).value();
+  const auto render = [&](const PanTilt& at) {
+    return expose(render_radiance(make_scene("patchwork").value(), c.camera, rig::surface_pose({}, at), 1), 0.8, 1.0,
+                  c.sensor, frame->sequence);
+  };
+  const PanTilt true_angles{pt.pan_rad - deg_to_rad(4.0), pt.tilt_rad + deg_to_rad(3.0)};
+  EXPECT_LE(cv::norm(frame->image, render(true_angles), cv::NORM_INF), 1.0);
+  EXPECT_GT(cv::norm(frame->image, render(pt), cv::NORM_INF), 100.0);
+}
+
 /// A stage of another backend: stands wherever it is told, instantly.
 class OtherStage final : public rig::PanTiltStage {
  public:

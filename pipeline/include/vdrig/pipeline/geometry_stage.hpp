@@ -15,7 +15,8 @@ namespace vdrig::pipeline {
 
 /// Camera and per-view poses of a session: from SESSION/calib/ when calibrated (camera.yml and views.json both
 /// present), else the simulator's ground truth. Calibrated: a view with a marker pose that passed the reprojection
-/// threshold uses it; any other view (excluded, or markers not found) is posed by the fitted rig kinematics at its
+/// threshold uses it; any other view (excluded, or markers not found) is posed by the fitted rig kinematics (the
+/// full model: distance, offset, encoder zeros, pan-axis tilt; views.json written before it has no angles) at its
 /// measured pan/tilt and flagged `excluded` (the observation map flags its observations kObsExcluded); without a
 /// kinematic fit in views.json such a view is kNotFound.
 struct SessionGeometry {

@@ -2,7 +2,9 @@
 // SimWorld (the platform's pose, the scene on it, the fixed camera). It is the default backend ("sim").
 //
 // Rig config section "sim" (edges in degrees, mm, seconds); every key is optional, unknown keys are rejected:
-//   { "scene": "patchwork", "distance_mm": 2500, "surface_offset_mm": [0, 0, 0], "samples_per_axis": 2,
+//   { "scene": "patchwork", "distance_mm": 2500, "surface_offset_mm": [0, 0, 0],
+//     "pan_zero_deg": 0, "tilt_zero_deg": 0, "pan_axis_tilt_deg": [0, 0] (an imperfect rig, rig/kinematics.hpp: the
+//     stage reports encoder readings, the platform turns by the true angles), "samples_per_axis": 2,
 //     "time_scale": 0 (0 = moves take no wall time, 1 = real time), "seed": 1,
 //     "camera": { "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 319.5, "cy": 239.5,
 //                 "k1": -0.08, "k2": 0.02, "p1": 0, "p2": 0, "k3": 0, "bits": 8,
