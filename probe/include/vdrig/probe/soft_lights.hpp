@@ -14,6 +14,7 @@
 
 #include <vector>
 
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
@@ -38,5 +39,8 @@ double sh9_clamped_cosine(double t);
 
 /// Soft lights of a lat-long map. VDRIG_CHECKs count >= 1 and kappa > 0. The powers sum to total_power(probe).
 SoftLights soft_lights(const Probe& probe, const SoftLightOptions& options = {});
+/// Soft lights of a cube map: the same sums over its texels with their exact solid angles (SH-9 likewise). On a
+/// 6 x 32^2 cube (6144 texels) 64 lights cost a few ms; probe_gl's GPU fusion feeds it the fused cube downsampled.
+SoftLights soft_lights(const CubeMap& cube, const SoftLightOptions& options = {});
 
 }  // namespace vdrig::probe
