@@ -386,8 +386,8 @@ Result<std::vector<probe::Probe>> load_room_probes(const std::string& room_file,
   return probes;
 }
 
-// The default camera: from the -y side, 30 degrees above the horizontal, looking at the middle of the path's
-// bounding box (at half its height), far enough for the box and the spheres to fit the horizontal field of view.
+// The default camera: from the -y side, 35 degrees above the horizontal, looking at the middle of the path's
+// bounding box (at a quarter of its height), far enough for the box and the spheres to fit the field of view.
 probe::SceneCamera auto_camera(const std::vector<Vec3d>& positions, double radius, double fov_deg) {
   Vec3d lo = positions[0], hi = positions[0];
   for (const Vec3d& p : positions) {
@@ -396,9 +396,9 @@ probe::SceneCamera auto_camera(const std::vector<Vec3d>& positions, double radiu
   }
   probe::SceneCamera c;
   c.look_at_mm = Vec3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.25 * (lo.z() + hi.z()));
-  const double half = 0.5 * (hi - lo).head<2>().norm() + 4 * radius;
-  const double distance = 1.3 * half / std::tan(0.5 * deg_to_rad(fov_deg));
-  const double elevation = deg_to_rad(30);
+  const double half = 0.5 * std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 3 * radius;
+  const double distance = 1.1 * half / std::tan(0.5 * deg_to_rad(fov_deg));
+  const double elevation = deg_to_rad(35);
   c.position_mm = c.look_at_mm + distance * Vec3d(0, -std::cos(elevation), std::sin(elevation));
   c.fov_deg = fov_deg;
   return c;

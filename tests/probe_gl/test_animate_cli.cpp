@@ -136,10 +136,10 @@ class AnimateCli : public ::testing::Test {
                                    " --radius " + std::to_string(kRadius) + " " + cam));
   }
   static void TearDownTestSuite() {
-    // VDRIG_KEEP_ANIMATION=DIR keeps the frames for looking at them.
+    // VDRIG_KEEP_ANIMATION=DIR keeps the probes, room, path and frames for looking at them.
     if (const char* keep = std::getenv("VDRIG_KEEP_ANIMATION"); keep && dir_) {
       std::error_code ec;
-      fs::copy(dir_->path() / "frames", keep, fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
+      fs::copy(dir_->path(), keep, fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
     }
     delete run_;
     delete dir_;
