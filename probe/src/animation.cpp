@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <thread>
 
 namespace vdrig::probe {
 namespace {
@@ -190,14 +191,22 @@ cv::Mat render_animation_frame(const SceneCamera& camera, const AnimationScene& 
 
   cv::Mat out(camera.height, camera.width, CV_32FC3);
   const int S = scene.samples_per_axis;
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) {
-      Rgb sum = Rgb::Zero();
-      for (int b = 0; b < S; ++b)
-        for (int a = 0; a < S; ++a)
-          sum += shade(camera.position_mm, camera.ray(x - 0.5 + (a + 0.5) / S, y - 0.5 + (b + 0.5) / S));
-      out.at<cv::Vec3f>(y, x) = to_bgr(sum / (S * S));
-    }
+  // Everything shade() reads is built above and read-only here, so bands of rows run in parallel (as shading.cpp).
+  auto rows = [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        Rgb sum = Rgb::Zero();
+        for (int b = 0; b < S; ++b)
+          for (int a = 0; a < S; ++a)
+            sum += shade(camera.position_mm, camera.ray(x - 0.5 + (a + 0.5) / S, y - 0.5 + (b + 0.5) / S));
+        out.at<cv::Vec3f>(y, x) = to_bgr(sum / (S * S));
+      }
+  };
+  const int threads = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, camera.height);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back(rows, camera.height * t / threads, camera.height * (t + 1) / threads);
+  for (std::thread& t : pool) t.join();
   return out;
 }
 
