@@ -584,7 +584,8 @@ Status run_animate(const AnimateArgs& a) {
 }
 
 const CommandRegistrar registrar([](CLI::App& root) {
-  auto* cmd_probe = root.add_subcommand("probe", "light probes: info, median-cut lights, SH irradiance, render, fuse");
+  auto* cmd_probe =
+      root.add_subcommand("probe", "light probes: info, lights, irradiance, cube, render, fuse, path, animate");
   cmd_probe->require_subcommand(1);
   auto add_sphere_options = [](CLI::App* cmd, SphereArgs& sphere) {
     cmd->add_option("--albedo", sphere.albedo, "sphere albedo R,G,B in [0, 1]")->capture_default_str();
@@ -693,7 +694,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
   }
   {
     auto* cmd = cmd_probe->add_subcommand(
-        "animate", "a diffuse and a glossy sphere moving along a path, lit by the probes fused on the GPU: PNG frames");
+        "animate", "spheres moving along a path, lit by the probes fused on the GPU: PNG frames (+ MP4)");
     auto a = std::make_shared<AnimateArgs>();
     cmd->add_option("room", a->room, "room JSON (vdrig.probe.room: the box and the probes placed in it)")->required();
     cmd->add_option("--path", a->path, "path JSON (vdrig.probe.path: keys of time_s and position_mm)")->required();
@@ -709,7 +710,7 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("--shadow-lights", a->shadow_lights, "strongest lights casting shadows on the ground")
         ->capture_default_str();
     cmd->add_option("--samples", a->samples, "antialiasing rays per pixel and axis")->capture_default_str();
-    cmd->add_option("--camera", a->camera, "X,Y,Z camera position, mm (default: from -y, 30 deg up, all in view)");
+    cmd->add_option("--camera", a->camera, "X,Y,Z camera position, mm (default: from -y, 35 deg up, all in view)");
     cmd->add_option("--look-at", a->look_at, "X,Y,Z point the camera looks at, mm");
     cmd->add_option("--fov", a->fov_deg, "horizontal field of view, degrees")->capture_default_str();
     cmd->add_option("--gamma", a->gamma, "tone mapping y = 1 - exp(-gamma x); 0: from frame 0, then fixed")

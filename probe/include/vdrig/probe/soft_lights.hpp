@@ -40,7 +40,8 @@ double sh9_clamped_cosine(double t);
 /// Soft lights of a lat-long map. VDRIG_CHECKs count >= 1 and kappa > 0. The powers sum to total_power(probe).
 SoftLights soft_lights(const Probe& probe, const SoftLightOptions& options = {});
 /// Soft lights of a cube map: the same sums over its texels with their exact solid angles (SH-9 likewise). On a
-/// 6 x 32^2 cube (6144 texels) 64 lights cost a few ms; probe_gl's GPU fusion feeds it the fused cube downsampled.
+/// 6 x 16^2 cube 64 lights take ~1 ms; `vdrig probe animate` feeds it the GPU-fused cube shrunk to that.
+/// (Both overloads skip a pixel's shares below e^-30 of its largest: below the rounding of the sums.)
 SoftLights soft_lights(const CubeMap& cube, const SoftLightOptions& options = {});
 
 }  // namespace vdrig::probe
