@@ -69,7 +69,8 @@ Rgb total_power(const CubeMap& cube);
 void cube_quadrature(const CubeMap& cube, std::vector<Vec3d>* directions, std::vector<Rgb>* radiance_times_sr);
 
 /// The cube shrunk by an integer `factor` (size a multiple of it): each texel the solid-angle-weighted mean of its
-/// factor x factor block, so total_power is kept exactly. VDRIG_CHECKs factor >= 1 dividing size.
+/// factor x factor block, so total_power is kept (to the float rounding of the texels, ~1e-8). VDRIG_CHECKs factor
+/// >= 1 dividing size.
 CubeMap downsample_cube(const CubeMap& cube, int factor);
 
 /// Radiance in direction `dir`: bilinear between texel centres of the face `dir` falls on, clamped at the face's
