@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "synthetic_room.hpp"
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/irradiance_map.hpp"
 #include "vdrig/probe/object_path.hpp"
@@ -24,36 +25,10 @@ using namespace vdrig::probe;
 
 namespace {
 
-const ProxyBox kRoom{Vec3d(-2000, -1500, 0), Vec3d(2000, 1500, 2600)};
+// The room and its probes: tests/probe_gl/synthetic_room.hpp (shared with test_gpu_fusion and bench_probe_gpu).
+const ProxyBox& kRoom = testing::kSyntheticRoom;
 
-// Emitted radiance of the wall point x with inward normal n: a colour per wall times a slow gradient, a window on
-// the +x wall and a small lamp on the ceiling.
-Rgb emitted(const Vec3d& x, const Vec3d& n) {
-  if (n.x() < -0.5 && std::abs(x.y()) <= 400 && std::abs(x.z() - 1400) <= 400) return Rgb(30, 28, 24);
-  if (n.z() < -0.5 && std::abs(x.x() + 800) <= 150 && std::abs(x.y() - 500) <= 150) return Rgb(180, 170, 150);
-  const Rgb wall[3] = {{0.6, 0.45, 0.35}, {0.35, 0.5, 0.6}, {0.8, 0.8, 0.75}};
-  const int axis = std::abs(n.x()) > 0.5 ? 0 : (std::abs(n.y()) > 0.5 ? 1 : 2);
-  return wall[axis] * (1.0 + 0.3 * std::sin(x.x() / 700.0 + x.y() / 900.0) * std::cos(x.z() / 800.0));
-}
-
-Probe render_probe(const Vec3d& position, int height) {
-  Probe p = make_probe(height);
-  p.position_mm = position;
-  const int W = p.width(), H = p.height(), ss = 2;
-  for (int j = 0; j < H; ++j)
-    for (int i = 0; i < W; ++i) {
-      Rgb sum = Rgb::Zero();
-      for (int b = 0; b < ss; ++b)
-        for (int a = 0; a < ss; ++a) {
-          const ProxyHit hit = intersect_from_inside(
-              kRoom, position, latlong_direction(i - 0.5 + (a + 0.5) / ss, j - 0.5 + (b + 0.5) / ss, W, H));
-          sum += emitted(hit.point_mm, hit.normal);
-        }
-      p.set_pixel(i, j, sum / (ss * ss));
-    }
-  p.depth_mm = proxy_depth(p, kRoom);
-  return p;
-}
+Probe render_probe(const Vec3d& position, int height) { return testing::render_room_probe(position, height); }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -71,8 +46,7 @@ struct Series {
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 300;
   const int height = 64;
-  const std::vector<Vec3d> probe_positions = {
-      {-1000, -700, 1200}, {1000, -700, 1000}, {1000, 800, 1300}, {-1000, 800, 900}};
+  const std::vector<Vec3d> probe_positions = testing::room_probe_positions();
   std::vector<Probe> probes;
   for (const Vec3d& p : probe_positions) probes.push_back(render_probe(p, height));
 

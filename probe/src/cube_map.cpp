@@ -134,6 +134,42 @@ CubeMap latlong_to_cube(const Probe& probe, int size, int samples) {
   return cube;
 }
 
+void cube_quadrature(const CubeMap& cube, std::vector<Vec3d>* dirs, std::vector<Rgb>* weighted) {
+  const int N = cube.size;
+  dirs->reserve(dirs->size() + kCubeFaceCount * N * N);
+  weighted->reserve(weighted->size() + kCubeFaceCount * N * N);
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int j = 0; j < N; ++j)
+      for (int i = 0; i < N; ++i) {
+        dirs->push_back(cube_direction(static_cast<CubeFace>(f), i + 0.5, j + 0.5, N));
+        weighted->push_back(cube.texel(static_cast<CubeFace>(f), i, j) * cube_texel_solid_angle(i, j, N));
+      }
+}
+
+CubeMap downsample_cube(const CubeMap& cube, int factor) {
+  VDRIG_CHECK(factor >= 1 && cube.size % factor == 0, "downsample_cube needs a factor dividing the face size");
+  const int N = cube.size, M = N / factor;
+  std::vector<double> sa(static_cast<size_t>(N) * N);
+  for (int j = 0; j < N; ++j)
+    for (int i = 0; i < N; ++i) sa[static_cast<size_t>(j) * N + i] = cube_texel_solid_angle(i, j, N);
+  CubeMap out = make_cube_map(M);
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int j = 0; j < M; ++j)
+      for (int i = 0; i < M; ++i) {
+        Rgb sum = Rgb::Zero();
+        double w = 0;
+        for (int b = 0; b < factor; ++b)
+          for (int a = 0; a < factor; ++a) {
+            const int x = i * factor + a, y = j * factor + b;
+            const double s = sa[static_cast<size_t>(y) * N + x];
+            sum += s * cube.texel(static_cast<CubeFace>(f), x, y);
+            w += s;
+          }
+        out.set_texel(static_cast<CubeFace>(f), i, j, sum / w);
+      }
+  return out;
+}
+
 Probe cube_to_latlong(const CubeMap& cube, int height, int samples) {
   VDRIG_CHECK(samples >= 1, "cube_to_latlong needs at least one sample per pixel");
   Probe p = make_probe(height);

@@ -126,6 +126,83 @@ bool FusionOptions::is_valid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// One source's contribution to the direction `dir` leaving new_position_mm, whose ray meets the proxy at h (hit):
+// the source's radiance at the wall point and its fusion weight there (0: the source does not see the point). The
+// one place the weights are computed; reproject(), fused_radiance() and the GPU fusion (probe_gl) follow it.
+struct SourceSample {
+  double weight = 0;
+  Rgb radiance = Rgb::Zero();
+};
+
+SourceSample source_sample(const Probe& source, const Mat3d& to_source, const ProxyHit& h, const Vec3d& dir,
+                           const FusionOptions& options) {
+  SourceSample out;
+  const Vec3d to_src = source.position_mm - h.point_mm;
+  const double d_src = to_src.norm();
+  if (!(d_src >= options.min_distance_mm)) return out;
+  const Vec3d w_src = to_src / d_src;  // from the wall point toward the source
+  const double cos_src = w_src.dot(h.normal);
+  if (!(cos_src > 0)) return out;  // the source is behind this wall
+  const Vec3d dir_src = to_source * (-w_src);
+  if (source.has_depth() && d_src > max_depth_around(source.depth_mm, dir_src) * (1.0 + options.occlusion_tolerance))
+    return out;              // something nearer hides the point from the source (thesis eq. 5.4)
+  const Vec3d w_new = -dir;  // from the wall point toward the new position
+  const double agreement = w_new.dot(w_src);
+  if (agreement < options.min_cosine) return out;
+  double weight_here = 1.0;
+  if (options.angular_exponent > 0) weight_here *= std::pow(0.5 * (1.0 + agreement), options.angular_exponent);
+  if (options.resolution_exponent > 0) {
+    const double cos_new = std::max(w_new.dot(h.normal), 1e-9);
+    const double rho = (h.distance_mm * h.distance_mm * cos_src) / (d_src * d_src * cos_new);
+    weight_here *= std::pow(std::min(1.0, rho), options.resolution_exponent);
+  }
+  if (!(weight_here > 0)) return out;
+  out.weight = weight_here;
+  out.radiance = radiance_at(source, dir_src);
+  return out;
+}
+
+}  // namespace
+
+Status validate_fusion_inputs(const std::vector<Probe>& probes, const ProxyBox& box, const FusionOptions& options) {
+  std::string why;
+  if (!options.is_valid(&why)) return invalid(why);
+  if (!box.is_valid(&why)) return invalid(why);
+  if (probes.empty()) return invalid("no probes to fuse");
+  for (size_t k = 0; k < probes.size(); ++k) {
+    const Probe& p = probes[k];
+    if (p.radiance.empty() || p.radiance.type() != CV_32FC3 || p.width() != 2 * p.height())
+      return invalid("probe " + std::to_string(k) + " is not a 2:1 CV_32FC3 lat-long map");
+    if (p.width() != probes[0].width())
+      return invalid("probes differ in size: probe 0 is " + std::to_string(probes[0].width()) + " x " +
+                     std::to_string(probes[0].height()) + ", probe " + std::to_string(k) + " is " +
+                     std::to_string(p.width()) + " x " + std::to_string(p.height()));
+    if (p.has_depth() && (p.depth_mm.type() != CV_32FC1 || p.depth_mm.size() != p.radiance.size()))
+      return invalid("probe " + std::to_string(k) + " has a depth map that is not CV_32FC1 of the map's size");
+    if (!box.contains(p.position_mm))
+      return invalid("probe " + std::to_string(k) + " at " + vec_text(p.position_mm) + " mm is not inside the room");
+  }
+  return Status::ok();
+}
+
+namespace {
+
+Status validate_position(const Vec3d& position_mm, const ProxyBox& box) {
+  if (!box.contains(position_mm)) return invalid("position " + vec_text(position_mm) + " mm is not inside the room");
+  return Status::ok();
+}
+
+}  // namespace
+
+size_t nearest_probe(const std::vector<Probe>& probes, const Vec3d& position_mm) {
+  size_t nearest = 0;
+  for (size_t k = 1; k < probes.size(); ++k)
+    if ((probes[k].position_mm - position_mm).norm() < (probes[nearest].position_mm - position_mm).norm()) nearest = k;
+  return nearest;
+}
+
 Probe reproject(const Probe& source, const Vec3d& new_position_mm, const ProxyBox& box, int height, cv::Mat* weight,
                 const FusionOptions& options) {
   std::string why;
@@ -144,55 +221,59 @@ Probe reproject(const Probe& source, const Vec3d& new_position_mm, const ProxyBo
       const ProxyHit h = intersect_from_inside(box, new_position_mm, dir);
       if (!h.hit) continue;
       out.depth_mm.at<float>(j, i) = static_cast<float>(h.distance_mm);
-      const Vec3d to_src = source.position_mm - h.point_mm;
-      const double d_src = to_src.norm();
-      if (!(d_src >= options.min_distance_mm)) continue;
-      const Vec3d w_src = to_src / d_src;  // from the wall point toward the source
-      const double cos_src = w_src.dot(h.normal);
-      if (!(cos_src > 0)) continue;  // the source is behind this wall
-      const Vec3d dir_src = to_source * (-w_src);
-      if (source.has_depth() &&
-          d_src > max_depth_around(source.depth_mm, dir_src) * (1.0 + options.occlusion_tolerance))
-        continue;                // something nearer hides the point from the source (thesis eq. 5.4)
-      const Vec3d w_new = -dir;  // from the wall point toward the new position
-      const double agreement = w_new.dot(w_src);
-      if (agreement < options.min_cosine) continue;
-      double weight_here = 1.0;
-      if (options.angular_exponent > 0) weight_here *= std::pow(0.5 * (1.0 + agreement), options.angular_exponent);
-      if (options.resolution_exponent > 0) {
-        const double cos_new = std::max(w_new.dot(h.normal), 1e-9);
-        const double rho = (h.distance_mm * h.distance_mm * cos_src) / (d_src * d_src * cos_new);
-        weight_here *= std::pow(std::min(1.0, rho), options.resolution_exponent);
-      }
-      if (!(weight_here > 0)) continue;
-      const Rgb c = radiance_at(source, dir_src);
-      out.set_pixel(i, j, c);
-      w.at<float>(j, i) = static_cast<float>(weight_here);
+      const SourceSample s = source_sample(source, to_source, h, dir, options);
+      if (s.weight <= 0) continue;
+      out.set_pixel(i, j, s.radiance);
+      w.at<float>(j, i) = static_cast<float>(s.weight);
     }
   if (weight) *weight = w;
   return out;
 }
 
+Rgb fused_radiance(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box, const Vec3d& dir,
+                   const FusionOptions& options, double* weight_sum) {
+  VDRIG_CHECK(!probes.empty(), "fused_radiance needs probes");
+  const Vec3d d = dir.normalized();
+  const ProxyHit h = intersect_from_inside(box, position_mm, d);
+  double wsum = 0;
+  Rgb sum = Rgb::Zero();
+  if (h.hit)
+    for (const Probe& p : probes) {
+      const SourceSample s = source_sample(p, p.rotation.transpose(), h, d, options);
+      if (s.weight <= 0) continue;
+      sum += s.weight * s.radiance;
+      wsum += s.weight;
+    }
+  if (weight_sum) *weight_sum = wsum;
+  if (wsum > 0) return sum / wsum;
+  const Probe& nearest = probes[nearest_probe(probes, position_mm)];
+  return radiance_at(nearest, nearest.rotation.transpose() * d);
+}
+
+Result<CubeMap> fuse_cube(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box, int size,
+                          const FusionOptions& options, int* uncovered_texels) {
+  VDRIG_TRY(validate_fusion_inputs(probes, box, options));
+  VDRIG_TRY(validate_position(position_mm, box));
+  if (size < 1) return invalid("cube size must be >= 1, got " + std::to_string(size));
+  CubeMap cube = make_cube_map(size);
+  int uncovered = 0;
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        double wsum = 0;
+        const Rgb c = fused_radiance(probes, position_mm, box,
+                                     cube_direction(static_cast<CubeFace>(f), i + 0.5, j + 0.5, size), options, &wsum);
+        if (!(wsum > 0)) ++uncovered;
+        cube.set_texel(static_cast<CubeFace>(f), i, j, c);
+      }
+  if (uncovered_texels) *uncovered_texels = uncovered;
+  return cube;
+}
+
 Result<Probe> fuse(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box,
                    const FusionOptions& options, FusionStats* stats) {
-  std::string why;
-  if (!options.is_valid(&why)) return invalid(why);
-  if (!box.is_valid(&why)) return invalid(why);
-  if (probes.empty()) return invalid("no probes to fuse");
-  for (size_t k = 0; k < probes.size(); ++k) {
-    const Probe& p = probes[k];
-    if (p.radiance.empty() || p.radiance.type() != CV_32FC3 || p.width() != 2 * p.height())
-      return invalid("probe " + std::to_string(k) + " is not a 2:1 CV_32FC3 lat-long map");
-    if (p.width() != probes[0].width())
-      return invalid("probes differ in size: probe 0 is " + std::to_string(probes[0].width()) + " x " +
-                     std::to_string(probes[0].height()) + ", probe " + std::to_string(k) + " is " +
-                     std::to_string(p.width()) + " x " + std::to_string(p.height()));
-    if (p.has_depth() && (p.depth_mm.type() != CV_32FC1 || p.depth_mm.size() != p.radiance.size()))
-      return invalid("probe " + std::to_string(k) + " has a depth map that is not CV_32FC1 of the map's size");
-    if (!box.contains(p.position_mm))
-      return invalid("probe " + std::to_string(k) + " at " + vec_text(p.position_mm) + " mm is not inside the room");
-  }
-  if (!box.contains(position_mm)) return invalid("position " + vec_text(position_mm) + " mm is not inside the room");
+  VDRIG_TRY(validate_fusion_inputs(probes, box, options));
+  VDRIG_TRY(validate_position(position_mm, box));
 
   const int H = options.height > 0 ? options.height : probes[0].height(), W = 2 * H;
   cv::Mat sum(H, W, CV_64FC3, cv::Scalar::all(0)), wsum(H, W, CV_64FC1, cv::Scalar::all(0));
@@ -216,9 +297,7 @@ Result<Probe> fuse(const std::vector<Probe>& probes, const Vec3d& position_mm, c
   }
 
   // Fallback for points no probe sees: the nearest probe along the same direction (distant-scene assumption).
-  size_t nearest = 0;
-  for (size_t k = 1; k < probes.size(); ++k)
-    if ((probes[k].position_mm - position_mm).norm() < (probes[nearest].position_mm - position_mm).norm()) nearest = k;
+  const size_t nearest = nearest_probe(probes, position_mm);
   const Mat3d to_nearest = probes[nearest].rotation.transpose();
   FusionStats s;
   for (int j = 0; j < H; ++j)

@@ -9,17 +9,6 @@ namespace {
 
 constexpr int kHybridRegionsPerLight = 8;
 
-// Texel directions and radiance x exact solid angle of a cube: the quadrature exact and sh9 sum over.
-void cube_quadrature(const CubeMap& cube, std::vector<Vec3d>* dirs, std::vector<Rgb>* weighted) {
-  const int N = cube.size;
-  for (int f = 0; f < kCubeFaceCount; ++f)
-    for (int j = 0; j < N; ++j)
-      for (int i = 0; i < N; ++i) {
-        dirs->push_back(cube_direction(static_cast<CubeFace>(f), i + 0.5, j + 0.5, N));
-        weighted->push_back(cube.texel(static_cast<CubeFace>(f), i, j) * cube_texel_solid_angle(i, j, N));
-      }
-}
-
 Result<int> parse_count(const std::string& text, const std::string& what) {
   char* end = nullptr;
   const long n = std::strtol(text.c_str(), &end, 10);

@@ -136,4 +136,60 @@ Result<Sh9Document> sh9_from_json(const std::string& text) {
   return doc;
 }
 
+Result<RoomDocument> room_from_json(const std::string& text) {
+  constexpr char kRoomFormat[] = "vdrig.probe.room";
+  const json doc = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return corrupt("room: not valid JSON");
+  if (!doc.is_object() || !doc.contains("format") || !doc["format"].is_string() ||
+      doc["format"].get<std::string>() != kRoomFormat)
+    return corrupt(std::string("room: \"format\" must be \"") + kRoomFormat + "\"");
+  if (!doc.contains("version") || !doc["version"].is_number_integer() ||
+      doc["version"].get<int>() != kRoomFormatVersion)
+    return corrupt("room: \"version\" must be " + std::to_string(kRoomFormatVersion));
+  RoomDocument out;
+  const auto room = doc.find("room_mm");
+  if (room == doc.end() || !room->is_object()) return corrupt("room: missing object \"room_mm\"");
+  auto lo = read_triple(*room, "min", "room: \"room_mm\"");
+  if (!lo) return lo.error();
+  auto hi = read_triple(*room, "max", "room: \"room_mm\"");
+  if (!hi) return hi.error();
+  out.room = ProxyBox{*lo, *hi};
+  std::string why;
+  if (!out.room.is_valid(&why)) return corrupt("room: \"room_mm\": " + why);
+  const auto probes = doc.find("probes");
+  if (probes == doc.end() || !probes->is_array() || probes->empty())
+    return corrupt("room: \"probes\" must be a non-empty array");
+  for (size_t k = 0; k < probes->size(); ++k) {
+    const json& p = (*probes)[k];
+    const std::string where = "room: probe " + std::to_string(k);
+    if (!p.is_object() || !p.contains("file") || !p["file"].is_string() || p["file"].get<std::string>().empty())
+      return corrupt(where + " needs a \"file\" string");
+    RoomProbe rp;
+    rp.file = p["file"].get<std::string>();
+    if (p.contains("position_mm")) {
+      auto pos = read_triple(p, "position_mm", where);
+      if (!pos) return pos.error();
+      rp.has_position = true;
+      rp.position_mm = *pos;
+    }
+    out.probes.push_back(std::move(rp));
+  }
+  return out;
+}
+
+std::string room_to_json(const RoomDocument& d) {
+  json probes = json::array();
+  for (const RoomProbe& p : d.probes) {
+    json o{{"file", p.file}};
+    if (p.has_position) o["position_mm"] = rgb_json(p.position_mm);
+    probes.push_back(o);
+  }
+  return json{{"format", "vdrig.probe.room"},
+              {"version", kRoomFormatVersion},
+              {"room_mm", {{"min", rgb_json(d.room.min_mm)}, {"max", rgb_json(d.room.max_mm)}}},
+              {"probes", probes}}
+             .dump(2) +
+         "\n";
+}
+
 }  // namespace vdrig::probe

@@ -320,6 +320,47 @@ TEST(Fuse, DepthVisibilityKeepsOccludersOut) {
   std::printf("occluded probe alone: %d pixels (%.3f sr) uncovered\n", stats.uncovered_pixels, stats.uncovered_sr);
 }
 
+// fuse_cube (the GPU fusion's CPU reference) goes through the same weights as fuse(): fused_radiance along a lat-long
+// pixel's centre direction is that pixel of fuse()'s map (both float-rounded), occluder and fallback included.
+TEST(FuseCube, FusedRadianceIsFusesPixelAndTheCubeHoldsItAtTexelCentres) {
+  std::vector<Probe> probes = room_probes();
+  for (Probe& p : probes) p.depth_mm = proxy_depth(p, kRoom);
+  for (int j = 0; j < probes[0].height(); ++j)  // a dark object in front of probe 0, as above
+    for (int i = 0; i < probes[0].width(); ++i)
+      if (angle_between(latlong_direction(i, j, probes[0].width(), probes[0].height()), Vec3d(-1, 0, 0)) <
+          deg_to_rad(40)) {
+        probes[0].radiance.at<cv::Vec3f>(j, i) = cv::Vec3f(0.02f, 0.02f, 0.02f);
+        probes[0].depth_mm.at<float>(j, i) = 300.0f;
+      }
+  auto map = fuse(probes, kTarget, kRoom);
+  ASSERT_TRUE(map);
+  double worst = 0;
+  for (int j = 0; j < map->height(); ++j)
+    for (int i = 0; i < map->width(); ++i) {
+      const Rgb c = fused_radiance(probes, kTarget, kRoom, latlong_direction(i, j, map->width(), map->height()));
+      worst = std::max(worst, (c - map->pixel(i, j)).cwiseAbs().maxCoeff() / std::max(1e-3, c.maxCoeff()));
+    }
+  EXPECT_LT(worst, 1e-6);  // float storage of the map
+  int uncovered = -1;
+  auto cube = fuse_cube(probes, kTarget, kRoom, 8, {}, &uncovered);
+  ASSERT_TRUE(cube);
+  EXPECT_EQ(uncovered, 0);
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int t = 0; t < 8; ++t) {
+      const Vec3d d = cube_direction(static_cast<CubeFace>(f), t + 0.5, 7 - t + 0.5, 8);
+      const Rgb want = fused_radiance(probes, kTarget, kRoom, d), got = cube->texel(static_cast<CubeFace>(f), t, 7 - t);
+      EXPECT_LT((want - got).norm(), 1e-5 * std::max(1.0, want.norm())) << f << " " << t;
+    }
+  // Alone and blinded by its occluder, probe 0 leaves texels to the fallback, counted.
+  auto alone = fuse_cube({probes[0]}, kTarget, kRoom, 16, {}, &uncovered);
+  ASSERT_TRUE(alone);
+  EXPECT_GT(uncovered, 0);
+  auto outside = fuse_cube(probes, Vec3d(2500, 0, 1000), kRoom, 8);
+  ASSERT_FALSE(outside);
+  EXPECT_NE(outside.error().message.find("not inside the room"), std::string::npos);
+  EXPECT_FALSE(fuse_cube(probes, kTarget, kRoom, 0));
+}
+
 TEST(Fuse, RejectsBadInput) {
   const std::vector<Probe> probes = room_probes(8);
   EXPECT_TRUE(fuse(probes, kTarget, kRoom));

@@ -115,5 +115,39 @@ TEST(ProbeJson, MalformedSh9IsAnErrorNamingTheProblem) {
   expect_corrupt(head + R"("radiance_coefficients": [)" + bad + "]}", "radiance coefficient 8", false);
 }
 
+TEST(ProbeJson, RoomRoundTripsAndMalformedRoomsNameTheProblem) {
+  RoomDocument room;
+  room.room = ProxyBox{Vec3d(-2000, -1500, 0), Vec3d(2000, 1500, 2600)};
+  room.probes = {{"a.exr", true, Vec3d(-1000, -700, 1200.5)}, {"sub/b.exr", false, Vec3d::Zero()}};
+  auto back = room_from_json(room_to_json(room));
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(back->room.min_mm, room.room.min_mm);
+  EXPECT_EQ(back->room.max_mm, room.room.max_mm);
+  ASSERT_EQ(back->probes.size(), 2u);
+  EXPECT_EQ(back->probes[0].file, "a.exr");
+  EXPECT_TRUE(back->probes[0].has_position);
+  EXPECT_EQ(back->probes[0].position_mm, room.probes[0].position_mm);
+  EXPECT_EQ(back->probes[1].file, "sub/b.exr");
+  EXPECT_FALSE(back->probes[1].has_position);
+
+  auto expect = [](const std::string& text, const std::string& what) {
+    auto r = room_from_json(text);
+    ASSERT_FALSE(r) << text;
+    EXPECT_EQ(r.error().code, ErrorCode::kCorrupt);
+    EXPECT_NE(r.error().message.find(what), std::string::npos) << r.error().message;
+  };
+  const std::string head = R"({"format": "vdrig.probe.room", "version": 1, )";
+  const std::string box = R"("room_mm": {"min": [0, 0, 0], "max": [1, 1, 1]}, )";
+  expect("{", "not valid JSON");
+  expect(R"({"format": "vdrig.probe.path", "version": 1})", "\"format\"");
+  expect(R"({"format": "vdrig.probe.room", "version": 2})", "\"version\"");
+  expect(head + R"("probes": [{"file": "a.exr"}]})", "\"room_mm\"");
+  expect(head + R"("room_mm": {"min": [0, 0, 0], "max": [1, 1]}, "probes": [{"file": "a.exr"}]})", "\"max\"");
+  expect(head + R"("room_mm": {"min": [0, 0, 0], "max": [1, -1, 1]}, "probes": [{"file": "a.exr"}]})", "min < max");
+  expect(head + box + R"("probes": []})", "non-empty");
+  expect(head + box + R"("probes": [{"position_mm": [0, 0, 0]}]})", "probe 0 needs a \"file\"");
+  expect(head + box + R"("probes": [{"file": "a.exr", "position_mm": [0, 0]}]})", "\"position_mm\"");
+}
+
 }  // namespace
 }  // namespace vdrig::probe

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "probe_support.hpp"
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/soft_lights.hpp"
 
@@ -80,6 +81,44 @@ TEST(SoftLights, ASlidingSourceDoesNotFlickerAsMedianCutDoes) {
   const double fs = excess(soft), fc = excess(cut);
   std::printf("sliding source, excess flicker: soft lights %.4f %%, median cut %.4f %%\n", 100 * fs, 100 * fc);
   EXPECT_LT(fs, fc / 5);
+}
+
+// On a cube map: shrinking keeps the power exactly, and soft lights of the cube (texels with their exact solid angles)
+// light the interior nearly as accurately as those of the lat-long map it came from. Its lamp is a point source of
+// 3.2e4: on 16^2 faces (5.6 deg texels) SH-9 sees it at a texel centre, up to 2.8 deg off, which costs accuracy that
+// 32^2 faces recover (measured 1.25 % and 0.585 %, lat-long 0.581 %).
+TEST(SoftLights, OnACubeMapTheyMatchTheExactIrradianceAsOnTheLatLongMap) {
+  Probe p;
+  ASSERT_TRUE(load_real_probe("interior", &p, 256));
+  const CubeMap cube = latlong_to_cube(p, 64);
+  std::vector<Vec3d> dirs;
+  std::vector<Rgb> weighted;
+  cube_quadrature(cube, &dirs, &weighted);
+  const IrradianceIntegrator exact(dirs, weighted);
+  auto error_of = [&](const SoftLights& s) {
+    double err = 0, mean = 0;
+    for (const Vec3d& n : fibonacci_directions(256)) {
+      const double e = luminance(exact.irradiance(n));
+      err += std::abs(luminance(s.irradiance(n)) - e);
+      mean += e;
+    }
+    return err / mean;
+  };
+  const double err_latlong = error_of(soft_lights(p));
+  for (const auto& [factor, bound] : {std::pair{4, 0.02}, {2, 0.01}}) {
+    const CubeMap small = downsample_cube(cube, factor);
+    EXPECT_EQ(small.size, 64 / factor);
+    EXPECT_NEAR(luminance(total_power(small)) / luminance(total_power(cube)), 1.0, 1e-7);  // float texels
+    const SoftLights from_cube = soft_lights(small);
+    Rgb power = Rgb::Zero();
+    for (const DirectionalLight& l : from_cube.lights) power += l.power;
+    EXPECT_NEAR(luminance(power) / luminance(total_power(small)), 1.0, 1e-9);
+    const double err = error_of(from_cube);
+    std::printf(
+        "interior, soft:64 vs exact over the 64^2 cube: from the %d^2 cube %.3f %% (from the lat-long %.3f %%)\n",
+        small.size, 100 * err, 100 * err_latlong);
+    EXPECT_LT(err, bound) << small.size;
+  }
 }
 
 }  // namespace

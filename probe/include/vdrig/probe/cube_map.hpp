@@ -16,6 +16,7 @@
 #include <array>
 #include <filesystem>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "vdrig/core/result.hpp"
 #include "vdrig/probe/probe.hpp"
@@ -62,6 +63,15 @@ double total_solid_angle(const CubeMap& cube);
 
 /// Integral of L over the sphere (sum of texel radiance x exact solid angle).
 Rgb total_power(const CubeMap& cube);
+
+/// The cube as a quadrature of the sphere: each texel's centre direction and radiance x exact solid angle, paired
+/// (what project_sh9, IrradianceIntegrator and soft_lights take). Appends to both vectors.
+void cube_quadrature(const CubeMap& cube, std::vector<Vec3d>* directions, std::vector<Rgb>* radiance_times_sr);
+
+/// The cube shrunk by an integer `factor` (size a multiple of it): each texel the solid-angle-weighted mean of its
+/// factor x factor block, so total_power is kept (to the float rounding of the texels, ~1e-8). VDRIG_CHECKs factor
+/// >= 1 dividing size.
+CubeMap downsample_cube(const CubeMap& cube, int factor);
 
 /// Radiance in direction `dir`: bilinear between texel centres of the face `dir` falls on, clamped at the face's
 /// edges (no filtering across faces).

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "vdrig/core/result.hpp"
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/probe.hpp"
 
 namespace vdrig::probe {
@@ -106,5 +107,26 @@ struct FusionStats {
 /// probe position not strictly inside the box.
 Result<Probe> fuse(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box,
                    const FusionOptions& options = {}, FusionStats* stats = nullptr);
+
+/// What fuse() checks before it starts, but the position: kInvalidArgument for invalid options or box, no probes,
+/// maps not 2:1 CV_32FC3 or of different sizes, a depth map of another size or type, a probe not strictly inside.
+Status validate_fusion_inputs(const std::vector<Probe>& probes, const ProxyBox& box, const FusionOptions& options);
+
+/// Index of the probe nearest to position_mm (fuse()'s fallback); `probes` must not be empty.
+size_t nearest_probe(const std::vector<Probe>& probes, const Vec3d& position_mm);
+
+/// The fused radiance arriving at position_mm from direction `dir` (world, any non-zero length): what fuse() gives a
+/// pixel looking that way, sum_i weight_i L_i / sum_i weight_i with reproject()'s weights, or the nearest probe's
+/// radiance along dir when no probe sees the wall point. `weight_sum` (optional) receives sum_i weight_i (0 for the
+/// fallback). Inputs are not validated (fuse_cube does that once); VDRIG_CHECKs a non-empty `probes`.
+Rgb fused_radiance(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box, const Vec3d& dir,
+                   const FusionOptions& options = {}, double* weight_sum = nullptr);
+
+/// The CPU reference of the GPU fusion (probe_gl/gpu_fusion.hpp): a world-aligned cube of `size` at position_mm whose
+/// texel (i, j) holds fused_radiance along its centre direction (cube_direction(face, i + 0.5, j + 0.5)).
+/// `options.height` is ignored. Errors as fuse(), and kInvalidArgument for size < 1. `uncovered_texels` (optional)
+/// receives the number of texels filled by the fallback.
+Result<CubeMap> fuse_cube(const std::vector<Probe>& probes, const Vec3d& position_mm, const ProxyBox& box, int size,
+                          const FusionOptions& options = {}, int* uncovered_texels = nullptr);
 
 }  // namespace vdrig::probe

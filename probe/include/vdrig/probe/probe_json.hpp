@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vdrig/core/result.hpp"
+#include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
 
@@ -45,5 +46,26 @@ std::string sh9_to_json(const Sh9Document& document);
 /// Parses sh9_to_json's text ("cosine_factors" and "note" are not read: they follow from the basis). Errors
 /// (kCorrupt, naming the field): not JSON, another format or version, not exactly 9 finite RGB triples. Never throws.
 Result<Sh9Document> sh9_from_json(const std::string& text);
+
+/// A room for fusion (`vdrig probe animate ROOM.json`): the box proxy and the probes placed in it.
+///   {"format": "vdrig.probe.room", "version": 1, "room_mm": {"min": [x, y, z], "max": [x, y, z]},
+///    "probes": [{"file": "a.exr", "position_mm": [x, y, z]}, {"file": "b.exr"}, ...]}
+/// A probe without "position_mm" keeps the position stored in its file (save_probe); relative file names are
+/// relative to the JSON file's folder (resolved by the caller).
+struct RoomProbe {
+  std::string file;
+  bool has_position = false;
+  Vec3d position_mm = Vec3d::Zero();
+};
+struct RoomDocument {
+  ProxyBox room;
+  std::vector<RoomProbe> probes;
+};
+inline constexpr int kRoomFormatVersion = 1;
+
+/// Errors (kCorrupt, naming the field): not JSON, another format or version, a missing or mistyped field, no probes,
+/// a box that is not valid (ProxyBox::is_valid's reason). Never throws.
+Result<RoomDocument> room_from_json(const std::string& text);
+std::string room_to_json(const RoomDocument& document);
 
 }  // namespace vdrig::probe

@@ -14,6 +14,7 @@
 
 #include <vector>
 
+#include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
@@ -38,5 +39,9 @@ double sh9_clamped_cosine(double t);
 
 /// Soft lights of a lat-long map. VDRIG_CHECKs count >= 1 and kappa > 0. The powers sum to total_power(probe).
 SoftLights soft_lights(const Probe& probe, const SoftLightOptions& options = {});
+/// Soft lights of a cube map: the same sums over its texels with their exact solid angles (SH-9 likewise). On a
+/// 6 x 16^2 cube 64 lights take ~1 ms; `vdrig probe animate` feeds it the GPU-fused cube shrunk to that.
+/// (Both overloads skip a pixel's shares below e^-30 of its largest: below the rounding of the sums.)
+SoftLights soft_lights(const CubeMap& cube, const SoftLightOptions& options = {});
 
 }  // namespace vdrig::probe
