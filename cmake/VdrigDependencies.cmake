@@ -22,3 +22,18 @@ if(VDRIG_BUILD_BENCH)
 endif()
 
 # The hardware backends' optional libraries are looked up with their backends, in rig/CMakeLists.txt.
+
+# MPI (cluster/): optional. VDRIG_MPIEXEC_FLAGS is the one place the flags tests and bench_mpi give mpirun live:
+# --oversubscribe (more ranks than the 2 cores here), --bind-to none (ranks run threads), the shared-memory and
+# loopback transports only (containers have no usable high-speed network; vader's single-copy mechanism needs
+# ptrace/CMA, often denied in containers) and plm_rsh_agent false (no ssh: a single node).
+# As root (CI), mpirun also needs --allow-run-as-root, which the tests add when they run as root.
+if(VDRIG_WITH_MPI)
+  find_package(MPI COMPONENTS CXX)
+  if(NOT MPI_CXX_FOUND)
+    message(WARNING "VDRIG_WITH_MPI: no MPI found (install libopenmpi-dev, scripts/setup); building without MPI")
+    set(VDRIG_WITH_MPI OFF CACHE BOOL "Build the MPI driver of cluster/ (vdrig fit/obsmap build --mpi)" FORCE)
+  endif()
+endif()
+set(VDRIG_MPIEXEC_FLAGS "--oversubscribe;--bind-to;none;--mca;btl;self,vader;--mca;btl_vader_single_copy_mechanism;none;--mca;plm_rsh_agent;false"
+    CACHE STRING "mpirun flags of the MPI tests and bench_mpi (a ;-list)")

@@ -9,7 +9,9 @@
 #include <filesystem>
 
 #include "commands.hpp"
+#include "mpi_job.hpp"
 #include "progress.hpp"
+#include "vdrig/cluster/distributed_fit.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
@@ -31,6 +33,7 @@ struct FitArgs {
   std::string window = "none";
   std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
   int threads = 0;
+  bool mpi = false;  // one rank of `mpirun -n N vdrig fit ... --mpi` (cluster/, docs/scale.md)
 };
 
 /// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
@@ -60,6 +63,7 @@ std::string fit_command(const FitArgs& a) {
   if (a.holdout > 0) cmd += " --holdout " + std::to_string(a.holdout);
   if (a.residual != "absolute") cmd += " --residual " + a.residual;
   if (a.shared_lights) cmd += " --shared-lights";
+  if (a.mpi) cmd += " --mpi";
   if (a.smoothing != 0.0) cmd += " --smoothing " + std::to_string(a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
   return cmd;
@@ -82,7 +86,14 @@ Status run_fit(const FitArgs& a) {
   if (a.holdout < 0 || a.holdout >= n_views)
     return make_error(ErrorCode::kInvalidArgument, "--holdout must be in [0, " + std::to_string(n_views - 1) + "]");
   const fs::path out = a.out.empty() ? session->layout().parameter_map_file(model.value()->name()) : fs::path(a.out);
-  VDRIG_TRY(check_output_writable(out));
+  cluster::Comm* comm = nullptr;
+  if (a.mpi) {
+    auto world = cluster::world();
+    if (!world) return world.error();
+    comm = world.value();
+  }
+  const bool lead = !comm || comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
+  if (lead) VDRIG_TRY(check_output_writable(out));
 
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
@@ -108,7 +119,9 @@ Status run_fit(const FitArgs& a) {
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever --res is.
   std::filesystem::path obsmap_path = a.obsmap;
-  if (obsmap_path.empty()) {
+  if (obsmap_path.empty() && !lead) {
+    obsmap_path = session->layout().obsmap_file(res->first, res->second);
+  } else if (obsmap_path.empty()) {
     std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
                 options.held_out.size());
     pipeline::ObsMapBuildOptions build;
@@ -119,12 +132,47 @@ Status run_fit(const FitArgs& a) {
     if (!built) return built.error();
     obsmap_path = built.value();
   }
+  // The other ranks open the observation map once rank 0 has made it current (built on rank 0 alone here; `vdrig
+  // obsmap build --mpi` builds it on every rank).
+  if (comm) VDRIG_TRY(comm->barrier());
   auto obs = fitting::ObsMapReader::open(obsmap_path);
   if (!obs) return obs.error();
   if (obs->views() != n_views)
     return make_error(ErrorCode::kInvalidArgument, obsmap_path.string() + " holds " + std::to_string(obs->views()) +
                                                        " views, the session " + std::to_string(n_views));
-  std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s, obs->spec().texels_t);
+  if (lead)
+    std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s,
+                obs->spec().texels_t);
+
+  if (comm) {
+    if (lead) std::printf("fit %s on %d MPI ranks\n", options.model->name().c_str(), comm->size());
+    cluster::DistributedFitOptions distributed;
+    distributed.tiles_root = out.string() + ".tiles";
+    ProgressLine tile_progress;
+    distributed.on_tile = [&tile_progress](int pass, int done, int total) {
+      tile_progress.update(done, total, "  pass %d: tiles %d/%d", pass + 1, done, total);
+    };
+    // TEST HOOK (tests/cluster): rank VDRIG_TEST_MPI_EXIT_RANK exits hard after VDRIG_TEST_MPI_EXIT_AFTER_TILES
+    // recorded tiles, to test that a lost rank ends the job and that the job resumes.
+    if (const char* r = std::getenv("VDRIG_TEST_MPI_EXIT_RANK"); r && std::atoi(r) == comm->rank())
+      if (const char* n = std::getenv("VDRIG_TEST_MPI_EXIT_AFTER_TILES"))
+        distributed.test_exit_after_tiles = std::atoi(n);
+    auto fitted = cluster::fit_distributed(*comm, obs.value(), options, distributed);
+    tile_progress.finish();
+    if (!fitted) return fitted.error();
+    if (!lead) return Status::ok();
+    fitting::ParameterMap& map = fitted->value();
+    map.set_source_session(fs::absolute(a.session).string());
+    map.image().string_attributes["vdrig.command"] = fit_command(a);
+    VDRIG_TRY(map.write(out));
+    // The map is durable (written atomically): its tile records are no longer needed.
+    auto store =
+        cluster::TileStore::open(distributed.tiles_root, cluster::fit_fingerprint(obs.value(), options), false);
+    if (store) VDRIG_TRY(store->remove());
+    std::printf("wrote %s (%s, %dx%d texels)\n", out.c_str(), map.model().name().c_str(), map.texels_s(),
+                map.texels_t());
+    return Status::ok();
+  }
 
   std::printf("fit %s\n", options.model->name().c_str());
   ProgressLine fit_progress;
@@ -188,7 +236,10 @@ const CommandRegistrar kFit([](CLI::App& root) {
   cmd->add_option("--threads", args->threads,
                   "worker threads (0 = all cores; at most " + std::to_string(fitting::MapFitOptions::kMaxThreads) + ")")
       ->capture_default_str();
-  cmd->callback([args] { finish(run_fit(*args)); });
+  cmd->add_flag("--mpi", args->mpi,
+                "one rank of an MPI job (mpirun -n N vdrig fit ... --mpi): tiles handed out by rank 0, each recorded "
+                "in OUT.tiles/ so that a killed job resumes (docs/scale.md)");
+  cmd->callback([args] { finish_job(run_fit(*args)); });
 });
 
 }  // namespace

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "mpi_job.hpp"
 #include "progress.hpp"
+#include "vdrig/cluster/distributed_obsmap.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
@@ -30,6 +32,7 @@ const char* compression_name(fitting::ObsCompression c) {
 struct BuildArgs {
   std::string session, resolution = "256x256", out, compression = "zstd";
   int tile = 32;
+  bool mpi = false;  // one rank of `mpirun -n N vdrig obsmap build ... --mpi`: tile rows split over the ranks
 };
 
 Status run_build(const BuildArgs& a) {
@@ -48,6 +51,17 @@ Status run_build(const BuildArgs& a) {
   options.on_view = [&progress](int done, int total) { progress.update(done, total, "  views %d/%d", done, total); };
   const std::filesystem::path out =
       a.out.empty() ? session->layout().obsmap_file(res->first, res->second) : std::filesystem::path(a.out);
+  if (a.mpi) {
+    auto comm = cluster::world();
+    if (!comm) return comm.error();
+    if (comm.value()->rank() != 0) options.on_view = nullptr;
+    const Status built = cluster::build_session_obsmap_distributed(*comm.value(), session.value(), res->first,
+                                                                   res->second, out, options);
+    progress.finish();
+    VDRIG_TRY(built);
+    if (comm.value()->rank() == 0) std::printf("wrote %s on %d MPI ranks\n", out.c_str(), comm.value()->size());
+    return Status::ok();
+  }
   const Status built = pipeline::build_session_obsmap_file(session.value(), res->first, res->second, out, options);
   progress.finish();
   VDRIG_TRY(built);
@@ -210,7 +224,10 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("--compression", a->compression, "zstd | none")
         ->capture_default_str()
         ->check(CLI::IsMember({"zstd", "none"}));
-    cmd->callback([a] { finish(run_build(*a)); });
+    cmd->add_flag("--mpi", a->mpi,
+                  "one rank of an MPI job (mpirun -n N vdrig obsmap build ... --mpi): each rank samples its tile rows "
+                  "into a part, rank 0 joins them (docs/scale.md)");
+    cmd->callback([a] { finish_job(run_build(*a)); });
   }
   {
     auto* cmd = obsmap->add_subcommand("info", "header, sizes and valid-observation statistics");

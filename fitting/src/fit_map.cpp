@@ -1,5 +1,7 @@
 #include "vdrig/fitting/fit_map.hpp"
 
+#include "vdrig/fitting/tiled_fit.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -166,6 +168,114 @@ Result<ParameterMap> fit_parameter_map(const ObsMapReader& obs, const MapFitOpti
     return TexelAccessor([shared](int s, int t) { return shared->texel(s, t); });
   };
   return fit_tiles(grid, load, options);
+}
+
+}  // namespace vdrig::fitting
+
+// ---------------------------------------------------------------------------------------------------------------
+// TiledMapFit (tiled_fit.hpp)
+
+namespace vdrig::fitting {
+
+struct TiledMapFit::Impl {
+  const ObsMapReader* obs = nullptr;
+  MapFitOptions options;
+  std::vector<int> held_out;
+  TileGrid grid;
+  std::unique_ptr<ModelTiledFit> model_fit;
+};
+
+Result<TiledMapFit> TiledMapFit::create(const ObsMapReader& obs, const MapFitOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->obs = &obs;
+  impl->options = options;
+  impl->options.on_progress = nullptr;  // tiles report their own progress (the driver's)
+  impl->grid = TileGrid{obs.spec(), obs.views(), obs.header().tile_size};
+  auto held_out = resolve_held_out(options, obs.views());
+  if (!held_out) return held_out.error();
+  impl->held_out = std::move(held_out.value());
+  auto model_fit = options.model->tiled_fit(impl->options, obs.spec());
+  if (!model_fit) return model_fit.error();
+  impl->model_fit = std::move(model_fit.value());
+  return TiledMapFit(std::move(impl));
+}
+
+TiledMapFit::TiledMapFit(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+TiledMapFit::TiledMapFit(TiledMapFit&&) noexcept = default;
+TiledMapFit& TiledMapFit::operator=(TiledMapFit&&) noexcept = default;
+TiledMapFit::~TiledMapFit() = default;
+
+int TiledMapFit::tiles() const { return impl_->grid.tiles_s() * impl_->grid.tiles_t(); }
+int TiledMapFit::passes() const { return impl_->model_fit->passes(); }
+
+TileRect TiledMapFit::tile(int k) const {
+  const TileGrid& g = impl_->grid;
+  VDRIG_CHECK(k >= 0 && k < tiles(), "tile index out of range");
+  TileRect r;
+  r.index = k;
+  r.s0 = (k % g.tiles_s()) * g.tile_size;
+  r.t0 = (k / g.tiles_s()) * g.tile_size;
+  r.width = std::min(g.tile_size, g.spec.texels_s - r.s0);
+  r.height = std::min(g.tile_size, g.spec.texels_t - r.t0);
+  return r;
+}
+
+Result<TileBytes> TiledMapFit::fit_tile(int pass, int k, const TileBytes* previous) {
+  const TileGrid& g = impl_->grid;
+  const TileRect rect = tile(k);
+  auto obs_tile = impl_->obs->read_tile(k % g.tiles_s(), k / g.tiles_s());
+  if (!obs_tile) return obs_tile.error();
+  const ObsTile& data = obs_tile.value();
+  TileWork work;
+  work.rect = rect;
+  work.workers = std::min(worker_count(impl_->options.threads), rect.height);
+  const std::vector<int>& held_out = impl_->held_out;
+  // Threads take the tile's texel rows in turn; a texel's fit does not depend on which thread fits it.
+  work.for_each_texel = [&](const TexelVisitor& visit) -> Status {
+    std::atomic<int> next_row{0};
+    auto worker = [&](int worker_index) {
+      for (int row = next_row.fetch_add(1); row < rect.height; row = next_row.fetch_add(1)) {
+        const int t = rect.t0 + row;
+        for (int s = rect.s0; s < rect.s0 + rect.width; ++s) {
+          TexelObservations texel, held;
+          split_texel(data.texel(s, t), held_out, &texel, &held);
+          visit(worker_index, s, t, texel, held);
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int i = 1; i < work.workers; ++i) pool.emplace_back(worker, i);
+    worker(0);
+    for (auto& th : pool) th.join();
+    return Status::ok();
+  };
+  return impl_->model_fit->fit_tile(pass, work, previous);
+}
+
+Result<TileBytes> TiledMapFit::summary(int pass, int k, const TileBytes& record) const {
+  return impl_->model_fit->summary(pass, tile(k), record);
+}
+
+Result<TileBytes> TiledMapFit::pass_state(int pass, const std::vector<TileBytes>& summaries) {
+  VDRIG_CHECK(static_cast<int>(summaries.size()) == tiles(), "pass_state needs every tile's summary");
+  return impl_->model_fit->pass_state(pass, summaries);
+}
+
+Status TiledMapFit::set_pass_state(int pass, const TileBytes& state) {
+  return impl_->model_fit->set_pass_state(pass, state);
+}
+
+Result<ParameterMap> TiledMapFit::assemble(const std::function<Result<TileBytes>(int tile)>& record) {
+  std::vector<TileRect> rects;
+  for (int k = 0; k < tiles(); ++k) rects.push_back(tile(k));
+  auto map = impl_->model_fit->assemble(rects, record);
+  if (map && !impl_->held_out.empty()) {
+    // As fit_tiles.
+    std::string views;
+    for (int v : impl_->held_out) views += (views.empty() ? "" : ",") + std::to_string(v);
+    map->image().string_attributes["vdrig.held_out_views"] = views;
+  }
+  return map;
 }
 
 }  // namespace vdrig::fitting

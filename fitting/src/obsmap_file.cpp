@@ -182,6 +182,32 @@ void pack(std::vector<char>& out, const float* rgb, const float* dir, const uint
   std::memcpy(out.data() + 24 * n, flags, n);
 }
 
+constexpr char kPartMagic[8] = {'V', 'D', 'R', 'I', 'G', 'O', 'B', 'P'};
+
+/// The 128-byte header of a file (magic kMagic) or part (kPartMagic; its tile rows are added by the caller).
+std::vector<char> make_header(const char* magic, const ObservationMapSpec& spec, int views, const TileGrid& grid,
+                              ObsCompression compression, uint64_t index_offset, const std::vector<char>& index) {
+  std::vector<char> header(kHeaderBytes, 0);
+  std::memcpy(header.data(), magic, 8);
+  put<uint32_t>(header, 8, kObsFileVersion);
+  put<uint32_t>(header, 12, kHeaderBytes);
+  put<int32_t>(header, 16, spec.texels_s);
+  put<int32_t>(header, 20, spec.texels_t);
+  put<int32_t>(header, 24, views);
+  put<int32_t>(header, 28, grid.tile);
+  put<double>(header, 32, spec.width_mm);
+  put<double>(header, 40, spec.height_mm);
+  put<uint32_t>(header, 48, static_cast<uint32_t>(compression));
+  put<uint32_t>(header, 52, kRecordLayout);
+  put<uint32_t>(header, 56, static_cast<uint32_t>(grid.tiles_s));
+  put<uint32_t>(header, 60, static_cast<uint32_t>(grid.tiles_t));
+  put<uint64_t>(header, 64, index_offset);
+  put<uint64_t>(header, 72, index.size());
+  put<uint64_t>(header, 80, hash64(index.data(), index.size()));
+  put<uint64_t>(header, 120, hash64(header.data(), 120));
+  return header;
+}
+
 struct ZstdDeleter {
   void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
   void operator()(ZSTD_DCtx* d) const { ZSTD_freeDCtx(d); }
@@ -267,6 +293,13 @@ struct ObsMapWriter::Impl {
     if (!finished && !tmp_path.empty()) ::unlink(tmp_path.c_str());
   }
 
+  /// A part of a file (ObsFileOptions::first_tile_row/end_tile_row): only its tile rows are sampled and written.
+  bool partial() const { return opt.end_tile_row >= 0; }
+  bool owns_tile(int k) const {
+    const int tt = k / grid.tiles_s;
+    return !partial() || (tt >= opt.first_tile_row && tt < opt.end_tile_row);
+  }
+
   Status begin_view(int view) {
     if (finished) return make_error(ErrorCode::kInvalidArgument, "observation-map writer already finished");
     if (view < 0 || view >= views)
@@ -282,6 +315,7 @@ struct ObsMapWriter::Impl {
     std::vector<float> trgb, tdir;
     std::vector<uint8_t> tflags;
     for (int k = 0; k < grid.count(); ++k) {
+      if (!owns_tile(k)) continue;
       const int ts = k % grid.tiles_s, tt = k / grid.tiles_s;
       const int w = grid.width(ts), h = grid.height(tt);
       const size_t n = static_cast<size_t>(w) * h;
@@ -347,6 +381,7 @@ struct ObsMapWriter::Impl {
       ZSTD_CCtx_setParameter(cctx.get(), ZSTD_c_checksumFlag, 1);
     }
     for (int k = 0; k < grid.count(); ++k) {
+      if (!owns_tile(k)) continue;  // a part leaves other rows' index entries zero
       // Transpose: the spill holds [view][texel]; the tile stores [texel][view].
       const size_t nt = grid.texels(k), V = static_cast<size_t>(views);
       trgb.resize(3 * nt * V);
@@ -379,23 +414,12 @@ struct ObsMapWriter::Impl {
     }
     VDRIG_TRY(write_at(out.get(), tmp_path, index.data(), index.size(), offset, opt));
 
-    std::memcpy(header.data(), kMagic, 8);
-    put<uint32_t>(header, 8, kObsFileVersion);
-    put<uint32_t>(header, 12, kHeaderBytes);
-    put<int32_t>(header, 16, spec.texels_s);
-    put<int32_t>(header, 20, spec.texels_t);
-    put<int32_t>(header, 24, views);
-    put<int32_t>(header, 28, grid.tile);
-    put<double>(header, 32, spec.width_mm);
-    put<double>(header, 40, spec.height_mm);
-    put<uint32_t>(header, 48, static_cast<uint32_t>(opt.compression));
-    put<uint32_t>(header, 52, kRecordLayout);
-    put<uint32_t>(header, 56, static_cast<uint32_t>(grid.tiles_s));
-    put<uint32_t>(header, 60, static_cast<uint32_t>(grid.tiles_t));
-    put<uint64_t>(header, 64, offset);
-    put<uint64_t>(header, 72, index.size());
-    put<uint64_t>(header, 80, hash64(index.data(), index.size()));
-    put<uint64_t>(header, 120, hash64(header.data(), 120));
+    header = make_header(partial() ? kPartMagic : kMagic, spec, views, grid, opt.compression, offset, index);
+    if (partial()) {
+      put<uint32_t>(header, 88, static_cast<uint32_t>(opt.first_tile_row));
+      put<uint32_t>(header, 92, static_cast<uint32_t>(opt.end_tile_row));
+      put<uint64_t>(header, 120, hash64(header.data(), 120));
+    }
     VDRIG_TRY(write_at(out.get(), tmp_path, header.data(), header.size(), 0, opt));
 
     if (::fsync(out.get()) != 0) return io_error("syncing", tmp_path, errno);
@@ -441,6 +465,12 @@ Result<ObsMapWriter> ObsMapWriter::create(const fs::path& path, const Observatio
   if (const std::string why_big = tile_too_large(options.tile_size, spec.texels_s, spec.texels_t, views);
       !why_big.empty())
     return make_error(ErrorCode::kInvalidArgument, why_big + ": use a smaller tile size");
+  const int tiles_t = ceil_div(spec.texels_t, options.tile_size);
+  if (options.end_tile_row >= 0 && !(options.first_tile_row >= 0 && options.first_tile_row <= options.end_tile_row &&
+                                     options.end_tile_row <= tiles_t))
+    return make_error(ErrorCode::kInvalidArgument, "tile rows [" + std::to_string(options.first_tile_row) + ", " +
+                                                       std::to_string(options.end_tile_row) + ") not within [0, " +
+                                                       std::to_string(tiles_t) + "]");
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   impl->spec = spec;
@@ -490,7 +520,10 @@ Status ObsMapWriter::add_view(int view, const ViewInput& input) {
                       "view " + std::to_string(view) + ": clip mask must be CV_8UC1 of the image's size");
   Impl& m = *impl_;
   const ObservationMapSpec& spec = m.spec;
-  cv::parallel_for_(cv::Range(0, spec.texels_t), [&](const cv::Range& rows) {
+  // A part samples only the texel rows of its tile rows.
+  const int t_begin = m.partial() ? std::min(spec.texels_t, m.opt.first_tile_row * m.grid.tile) : 0;
+  const int t_end = m.partial() ? std::min(spec.texels_t, m.opt.end_tile_row * m.grid.tile) : spec.texels_t;
+  cv::parallel_for_(cv::Range(t_begin, t_end), [&](const cv::Range& rows) {
     for (int t = rows.start; t < rows.end; ++t)
       for (int s = 0; s < spec.texels_s; ++s) {
         const size_t i = static_cast<size_t>(t) * spec.texels_s + s;
@@ -644,6 +677,7 @@ Result<ObsMapReader> ObsMapReader::open(const fs::path& path) {
   std::vector<char> idx(index_bytes);
   VDRIG_TRY(read_at(m.fd.get(), path, idx.data(), idx.size(), index_offset));
   if (!checksum_matches(get<uint64_t>(h, 80), idx.data(), idx.size())) return m.corrupt("tile index checksum mismatch");
+  m.header.index_checksum = get<uint64_t>(h, 80);
   m.index.resize(m.grid.count());
   for (int k = 0; k < m.grid.count(); ++k) {
     Impl::Entry& e = m.index[k];
@@ -736,6 +770,106 @@ Result<ObservationMap> ObsMapReader::read_all() const {
           }
     }
   return map;
+}
+
+}  // namespace vdrig::fitting
+
+namespace vdrig::fitting {
+
+Status assemble_obsmap_parts(const std::vector<fs::path>& parts, const fs::path& path) {
+  struct Part {
+    fs::path path;
+    Fd fd;
+    std::vector<char> header, index;
+    uint32_t first = 0, end = 0;
+  };
+  if (parts.empty()) return make_error(ErrorCode::kInvalidArgument, "no observation-map parts to assemble");
+  std::vector<Part> in(parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) {
+    Part& p = in[i];
+    p.path = parts[i];
+    p.fd = Fd(::open(p.path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (p.fd.get() < 0) return io_error("opening", p.path, errno);
+    p.header.resize(kHeaderBytes);
+    VDRIG_TRY(read_at(p.fd.get(), p.path, p.header.data(), kHeaderBytes, 0));
+    auto corrupt = [&](const std::string& why) {
+      return make_error(ErrorCode::kCorrupt, p.path.string() + ": " + why);
+    };
+    if (std::memcmp(p.header.data(), kPartMagic, 8) != 0) return corrupt("not an observation-map part");
+    if (!checksum_matches(get<uint64_t>(p.header, 120), p.header.data(), 120)) return corrupt("header checksum");
+    // Every field but the rows, the index's place and the checksums must be the first part's.
+    if (i > 0 && (std::memcmp(p.header.data(), in[0].header.data(), 64) != 0))
+      return corrupt("a part of another observation map than " + in[0].path.string());
+    p.first = get<uint32_t>(p.header, 88);
+    p.end = get<uint32_t>(p.header, 92);
+    p.index.resize(get<uint64_t>(p.header, 72));
+    VDRIG_TRY(read_at(p.fd.get(), p.path, p.index.data(), p.index.size(), get<uint64_t>(p.header, 64)));
+    if (!checksum_matches(get<uint64_t>(p.header, 80), p.index.data(), p.index.size()))
+      return corrupt("index checksum");
+  }
+  const std::vector<char>& h0 = in[0].header;
+  const ObservationMapSpec spec{get<int32_t>(h0, 16), get<int32_t>(h0, 20), get<double>(h0, 32), get<double>(h0, 40)};
+  const int views = get<int32_t>(h0, 24);
+  const TileGrid grid(spec.texels_s, spec.texels_t, get<int32_t>(h0, 28));
+  const auto compression = static_cast<ObsCompression>(get<uint32_t>(h0, 48));
+  if (in[0].index.size() != kIndexEntryBytes * static_cast<size_t>(grid.count()))
+    return make_error(ErrorCode::kCorrupt, in[0].path.string() + ": index size disagrees with the tile count");
+  // Which part holds each tile row: exactly one.
+  std::vector<int> owner(static_cast<size_t>(grid.tiles_t), -1);
+  for (size_t i = 0; i < in.size(); ++i)
+    for (uint32_t r = in[i].first; r < in[i].end && r < owner.size(); ++r) {
+      if (owner[r] >= 0)
+        return make_error(ErrorCode::kInvalidArgument, "tile row " + std::to_string(r) + " is in two parts");
+      owner[r] = static_cast<int>(i);
+    }
+  for (size_t r = 0; r < owner.size(); ++r)
+    if (owner[r] < 0) return make_error(ErrorCode::kInvalidArgument, "no part holds tile row " + std::to_string(r));
+
+  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  std::string tmpl = (dir / (path.filename().string() + ".tmp-XXXXXX")).string();
+  Fd out(::mkstemp(tmpl.data()));
+  if (out.get() < 0) return io_error("creating a temporary file in", dir, errno);
+  const fs::path tmp = tmpl;
+  struct Cleanup {
+    const fs::path& p;
+    bool keep = false;
+    ~Cleanup() {
+      if (!keep) ::unlink(p.c_str());
+    }
+  } cleanup{tmp};
+  if (::fchmod(out.get(), 0666 & ~process_umask()) != 0) return io_error("setting the mode of", tmp, errno);
+  const ObsFileOptions no_hooks;
+  uint64_t offset = kHeaderBytes;
+  std::vector<char> index(kIndexEntryBytes * static_cast<size_t>(grid.count()), 0), stored;
+  for (int k = 0; k < grid.count(); ++k) {
+    const Part& p = in[static_cast<size_t>(owner[static_cast<size_t>(k / grid.tiles_s)])];
+    const uint64_t at = get<uint64_t>(p.index, kIndexEntryBytes * k),
+                   n = get<uint64_t>(p.index, kIndexEntryBytes * k + 8);
+    const uint64_t hash = get<uint64_t>(p.index, kIndexEntryBytes * k + 16);
+    if (n > (uint64_t{1} << 32))
+      return make_error(ErrorCode::kCorrupt, p.path.string() + ": tile " + std::to_string(k) + " too large");
+    stored.resize(n);
+    VDRIG_TRY(read_at(p.fd.get(), p.path, stored.data(), n, at));
+    if (!checksum_matches(hash, stored.data(), n))
+      return make_error(ErrorCode::kCorrupt, p.path.string() + ": tile " + std::to_string(k) + " checksum mismatch");
+    VDRIG_TRY(write_at(out.get(), tmp, stored.data(), n, offset, no_hooks));
+    put<uint64_t>(index, kIndexEntryBytes * k, offset);
+    put<uint64_t>(index, kIndexEntryBytes * k + 8, n);
+    put<uint64_t>(index, kIndexEntryBytes * k + 16, hash);
+    offset += n;
+  }
+  VDRIG_TRY(write_at(out.get(), tmp, index.data(), index.size(), offset, no_hooks));
+  const std::vector<char> header = make_header(kMagic, spec, views, grid, compression, offset, index);
+  VDRIG_TRY(write_at(out.get(), tmp, header.data(), header.size(), 0, no_hooks));
+  if (::fsync(out.get()) != 0) return io_error("syncing", tmp, errno);
+  out.reset();
+  VDRIG_TRY(check_replaceable(path));
+  if (::rename(tmp.c_str(), path.c_str()) != 0) return io_error("renaming into", path, errno);
+  cleanup.keep = true;
+  (void)fsync_path(dir, true);
+  log::get("fitting")->info("observation map {} assembled from {} parts: {:.1f} MB", path.string(), parts.size(),
+                            (offset + index.size()) / 1e6);
+  return Status::ok();
 }
 
 }  // namespace vdrig::fitting

@@ -26,6 +26,7 @@ class LinearFitOperator;
 struct FitQuality;
 struct MapFitOptions;
 struct MapFitContext;
+class ModelTiledFit;
 
 class ReflectanceModel;
 using ModelPtr = std::shared_ptr<const ReflectanceModel>;
@@ -83,6 +84,13 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// (kInvalidArgument with the reason); fills the quality channels (ParameterMap::set_quality, set_holdout_rms).
   /// Models whose texels are fitted independently implement it with fit_map_per_texel.
   virtual Result<ParameterMap> fit_map(const MapFitContext& context) const = 0;
+
+  /// The same fit cut into tile jobs (tiled_fit.hpp: distributed and restartable fits), giving the same map bit for
+  /// bit; kInvalidArgument for options fit_map would refuse. The default, per_texel_tiled_fit, is right for models
+  /// whose fit_map is fit_map_per_texel; a model with passes over the whole map (Phong's shared lights) or a
+  /// position-dependent fit overrides it. `spec` is the map's.
+  virtual Result<std::unique_ptr<ModelTiledFit>> tiled_fit(const MapFitOptions& options,
+                                                           const ObservationMapSpec& spec) const;
 };
 
 /// The texel fitter of a model whose texels are fitted independently: one per worker thread (it may keep work

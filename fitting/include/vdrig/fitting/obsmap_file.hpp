@@ -37,6 +37,11 @@ struct ObsFileOptions {
   /// Test/fault-injection hook called before every file write with the file and byte count; a failed Status is
   /// returned as the write's failure (e.g. kNoSpace to simulate a full disk).
   std::function<Status(const std::filesystem::path& file, size_t bytes)> before_write;
+  /// A part of a file (the MPI build, cluster/): when end_tile_row >= 0, only tile rows [first_tile_row,
+  /// end_tile_row) are sampled and written, to a part file (magic "VDRIGOBP", not readable by ObsMapReader) that
+  /// assemble_obsmap_parts joins with the other parts into the file the whole writer would have written.
+  int first_tile_row = 0;
+  int end_tile_row = -1;
 
   bool is_valid(std::string* why) const;
 };
@@ -53,6 +58,9 @@ struct ObsFileHeader {
   uint64_t file_bytes = 0;
   uint64_t stored_tile_bytes = 0;  // sum of the tiles as stored (compressed or not)
   uint64_t raw_tile_bytes = 0;     // sum of the tiles uncompressed
+  /// hash64 of the tile index, which holds every tile's checksum: with the sizes above, the file's content
+  /// identity (a restartable fit ties its tile records to it, cluster/).
+  uint64_t index_checksum = 0;
 };
 
 /// One tile read from a file: texels [s0, s0 + width) x [t0, t0 + height), every view. Texel coordinates are the
@@ -146,6 +154,13 @@ class ObsMapReader {
 
 /// The format's checksum (docs/obsmap.md, "hash64"), for tools and tests that write or repair a file by hand.
 uint64_t obsfile_hash64(const void* data, size_t n);
+
+/// Joins part files (ObsFileOptions::end_tile_row), which together hold every tile row once, into the file at
+/// `path`, byte for byte the file one ObsMapWriter would have written from the same views (tiles copied in index
+/// order, each checked against its checksum). Written as the writer writes (temporary, fsync, rename). Errors:
+/// kCorrupt for a part that is damaged or does not belong with the others, kInvalidArgument when rows are missing
+/// or held twice, kIo/kNoSpace for I/O.
+Status assemble_obsmap_parts(const std::vector<std::filesystem::path>& parts, const std::filesystem::path& path);
 
 /// Writes an in-memory map to `path` (ObsMapWriter fed view by view).
 Status write_obsmap_file(const ObservationMap& map, const std::filesystem::path& path,

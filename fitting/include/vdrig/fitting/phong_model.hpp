@@ -39,6 +39,10 @@ class PhongModel : public ReflectanceModel {
   std::string check_parameters(std::span<const double> parameters) const override;  // m >= 0
   std::string glsl(const std::function<std::string(int parameter)>& parameter) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
+  /// Records hold every texel's fit at full precision; with shared lights a second pass refits the tiles after the
+  /// lights are estimated from every tile's lobe rays, gathered in texel order as fit_map gathers them.
+  Result<std::unique_ptr<ModelTiledFit>> tiled_fit(const MapFitOptions& options,
+                                                   const ObservationMapSpec& spec) const override;
 
  private:
   int lobes_;
