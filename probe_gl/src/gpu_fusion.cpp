@@ -8,6 +8,7 @@
 #include <string>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/viewer/gl_program.hpp"
 
 namespace vdrig::probe_gl {
 namespace {
@@ -146,22 +147,6 @@ std::string exponent_glsl(const char* name, const char* uniform, double exponent
   return std::string("float ") + name + "(float x) { return " + body + "; }\n";
 }
 
-GLuint compile(GLenum type, const char* src, std::string* log) {
-  GLuint sh = glCreateShader(type);
-  glShaderSource(sh, 1, &src, nullptr);
-  glCompileShader(sh);
-  GLint ok = 0;
-  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char buf[4096];
-    glGetShaderInfoLog(sh, sizeof buf, nullptr, buf);
-    *log = buf;
-    glDeleteShader(sh);
-    return 0;
-  }
-  return sh;
-}
-
 Error invalid(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, "GPU probe fusion: " + m); }
 
 }  // namespace
@@ -175,33 +160,16 @@ Result<std::unique_ptr<GpuFusion>> GpuFusion::create(const std::vector<probe::Pr
   if (cube_size < 1 || cube_size > 2048)
     return invalid("cube size must be in [1, 2048], got " + std::to_string(cube_size));
 
-  std::string log;
-  const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, &log);
   const std::string fragment =
       "#version 330 core\nuniform float u_angular;  // P\nuniform float u_resolution;  // Q\n" +
       exponent_glsl("angular_term", "u_angular", options.angular_exponent) +
       exponent_glsl("resolution_term", "u_resolution", options.resolution_exponent) + kFragmentShader;
-  const GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, fragment.c_str(), &log) : 0;
-  if (!vs || !fs) {
-    if (vs) glDeleteShader(vs);
-    return make_error(ErrorCode::kInternal, "fusion shader compilation failed: " + log);
-  }
+  auto program = viewer::link_program(kVertexShader, fragment, "fusion shader");
+  if (!program) return program.error();
   auto g = std::unique_ptr<GpuFusion>(new GpuFusion());
   g->size_ = cube_size;
   g->room_ = room;
-  g->program_ = glCreateProgram();
-  glAttachShader(g->program_, vs);
-  glAttachShader(g->program_, fs);
-  glLinkProgram(g->program_);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(g->program_, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char buf[4096];
-    glGetProgramInfoLog(g->program_, sizeof buf, nullptr, buf);
-    return make_error(ErrorCode::kInternal, std::string("fusion shader link failed: ") + buf);
-  }
+  g->program_ = program.value();
   glGenVertexArrays(1, &g->vao_);
 
   // The probes as layers of one RGBA32F array: R, G, B radiance (Rgb order) and the depth in A.

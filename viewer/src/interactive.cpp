@@ -15,6 +15,7 @@
 
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/viewer/gl_program.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"
 
 namespace vdrig::viewer {
@@ -163,18 +164,10 @@ out vec4 out_colour;
 uniform sampler2D u_image;
 void main() { out_colour = vec4(texture(u_image, v_uv).rgb, 1.0); }
 )";
-    program_ = glCreateProgram();
-    for (const auto& [type, src] : {std::pair{GL_VERTEX_SHADER, vs}, std::pair{GL_FRAGMENT_SHADER, fs}}) {
-      const GLuint sh = glCreateShader(type);
-      glShaderSource(sh, 1, &src, nullptr);
-      glCompileShader(sh);
-      glAttachShader(program_, sh);
-      glDeleteShader(sh);
-    }
-    glLinkProgram(program_);
-    GLint ok = 0;
-    glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-    VDRIG_CHECK(ok, "the viewer's image shader does not link");  // fixed source: a failure is a broken invariant
+    auto program = link_program(vs, fs, "the viewer's image shader");
+    // Fixed source: a failure is a broken invariant.
+    VDRIG_CHECK(program.is_ok(), program.error().describe());
+    program_ = program.value();
     glGenVertexArrays(1, &vao_);
     glGenTextures(1, &texture_);
   }

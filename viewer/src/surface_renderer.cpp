@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/viewer/gl_program.hpp"
 
 namespace vdrig::viewer {
 namespace {
@@ -123,23 +124,6 @@ std::string model_glsl(const fitting::ParameterMap& map) {
          });
 }
 
-GLuint compile(GLenum type, const std::string& src, std::string* log) {
-  GLuint sh = glCreateShader(type);
-  const char* p = src.c_str();
-  glShaderSource(sh, 1, &p, nullptr);
-  glCompileShader(sh);
-  GLint ok = 0;
-  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char buf[4096];
-    glGetShaderInfoLog(sh, sizeof buf, nullptr, buf);
-    *log = buf;
-    glDeleteShader(sh);
-    return 0;
-  }
-  return sh;
-}
-
 std::once_flag g_glfw_once;
 bool g_glfw_ok = false;
 
@@ -179,24 +163,10 @@ std::string GlContext::renderer() const {
 
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
   const std::string model = model_glsl(map);
-  std::string log;
-  const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, &log);
-  const GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, std::string(kFragmentHead) + model + kFragmentTail, &log) : 0;
-  if (!vs || !fs) return make_error(ErrorCode::kInternal, "shader compilation failed: " + log);
+  auto program = link_program(kVertexShader, std::string(kFragmentHead) + model + kFragmentTail, "surface shader");
+  if (!program) return program.error();
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
-  r->program_ = glCreateProgram();
-  glAttachShader(r->program_, vs);
-  glAttachShader(r->program_, fs);
-  glLinkProgram(r->program_);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(r->program_, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char buf[4096];
-    glGetProgramInfoLog(r->program_, sizeof buf, nullptr, buf);
-    return make_error(ErrorCode::kInternal, std::string("shader link failed: ") + buf);
-  }
+  r->program_ = program.value();
   glGenVertexArrays(1, &r->vao_);
   r->texels_s_ = map.texels_s();
   r->texels_t_ = map.texels_t();
