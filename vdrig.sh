@@ -83,7 +83,11 @@ case "$verb" in
     export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
     export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-    with_display ctest --preset asan
+    # A failing test runs once more under ASan, and fails the run only if it fails again: the sanitizer runtime of
+    # GCC 12 sometimes crashes in LeakSanitizer's stop-the-world tracer at process exit ("Tracer caught signal 11",
+    # after the test body passed; fixed upstream in LLVM 17, https://reviews.llvm.org/D147459), seen here once in two
+    # full runs on an OpenGL (llvmpipe) test. A real failure fails both runs. Release tests run once.
+    with_display ctest --preset asan --repeat until-pass:2
     run_fuzzers
     ;;
   fuzz)
