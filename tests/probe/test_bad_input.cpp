@@ -4,11 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <sstream>
 
 #include "probe_support.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/test/temp_dir.hpp"
@@ -166,11 +165,10 @@ TEST(BadInput, FuzzProbePathRegressionsParseToAValueOrAnError) {
   if (!std::filesystem::is_directory(folder)) GTEST_SKIP() << "no " << folder;
   int replayed = 0;
   for (const auto& entry : std::filesystem::directory_iterator(folder)) {
-    std::ifstream in(entry.path(), std::ios::binary);
-    std::stringstream text;
-    text << in.rdbuf();
+    const auto text = read_regular_file(entry.path(), 1 << 20);
+    ASSERT_TRUE(text) << text.error().describe();
     Result<ObjectPath> path = ObjectPath{};
-    ASSERT_NO_THROW(path = path_from_json(text.str())) << entry.path();
+    ASSERT_NO_THROW(path = path_from_json(*text)) << entry.path();
     ++replayed;
     if (!path || !validate_path(*path, kRoom, 100)) continue;
     // What fuzz_probe_path checks of a path the app would use.

@@ -4,13 +4,12 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "probe_support.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/probe/probe_json.hpp"
 
 namespace vdrig::probe {
@@ -160,11 +159,10 @@ TEST(ProbeJson, FuzzProbeRoomRegressionsParseToAValueOrAnError) {
   if (!std::filesystem::is_directory(folder)) GTEST_SKIP() << "no " << folder;
   int replayed = 0;
   for (const auto& entry : std::filesystem::directory_iterator(folder)) {
-    std::ifstream in(entry.path(), std::ios::binary);
-    std::stringstream text;
-    text << in.rdbuf();
+    const auto text = read_regular_file(entry.path(), 1 << 20);
+    ASSERT_TRUE(text) << text.error().describe();
     Result<RoomDocument> room = RoomDocument{};
-    ASSERT_NO_THROW(room = room_from_json(text.str())) << entry.path();
+    ASSERT_NO_THROW(room = room_from_json(*text)) << entry.path();
     // Each kept input is one the parser wrongly accepted or crashed on: all are errors now.
     EXPECT_FALSE(room) << entry.path();
     ++replayed;
