@@ -1,6 +1,7 @@
 // Writes the seed corpora of the fuzz targets with the project's own writers (Session, write_obsmap_file,
-// ParameterMap::write, save_probe, sim_rig_config) into OUT/<target>/: `fuzz_make_corpus fuzz/corpus`.
-// Each seed is a small valid input (a few hundred bytes to a few KB), so the fuzzers start inside the formats.
+// ParameterMap::write, save_probe, room_to_json, path_to_json, sim_rig_config) into OUT/<target>/: `fuzz_make_corpus
+// fuzz/corpus`. Each seed is a small valid input (a few hundred bytes to a few KB), so the fuzzers start inside the
+// formats.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,7 +12,9 @@
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/probe.hpp"
+#include "vdrig/probe/probe_json.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 
 using namespace vdrig;
@@ -160,6 +163,40 @@ void probe_seeds(const fs::path& out) {
   check(probe::save_probe(out / "probe_exr" / "4x2_depth.exr", p));
 }
 
+/// Rooms for `vdrig probe animate` (room_to_json): several probes with and without positions, a single probe, a
+/// thin room with negative and fractional coordinates, and names with folders, spaces and non-ASCII characters.
+void probe_room_seeds(const fs::path& out) {
+  const fs::path d = out / "probe_room";
+  probe::RoomDocument room;
+  room.room = probe::ProxyBox{Vec3d(-2000, -1500, 0), Vec3d(2000, 1500, 2600)};
+  room.probes = {{"a.exr", true, Vec3d(-1000, -700, 1200)},
+                 {"b.exr", true, Vec3d(1000, 700, 1200)},
+                 {"sub/c.exr", false, Vec3d::Zero()},
+                 {"/abs/d.exr", true, Vec3d(0, 0, 2500.5)}};
+  write_text(d / "four_probes.json", probe::room_to_json(room));
+  room.probes = {{"only.exr", false, Vec3d::Zero()}};
+  write_text(d / "one_probe.json", probe::room_to_json(room));
+  room.room = probe::ProxyBox{Vec3d(-0.5, -1e-3, -250.25), Vec3d(0.5, 1e-3, 1e6)};
+  room.probes = {{"with space.exr", true, Vec3d(0, 0, 0)}, {"\xc3\xa9t\xc3\xa9.exr", true, Vec3d(-0.25, 0, 1e5)}};
+  write_text(d / "thin_room.json", probe::room_to_json(room));
+}
+
+/// Object paths (path_to_json): one key, a walk of several keys inside fusion's test room, and keys with fractional
+/// and negative times.
+void probe_path_seeds(const fs::path& out) {
+  const fs::path d = out / "probe_path";
+  probe::ObjectPath path;
+  path.keys = {{0, Vec3d(0, 0, 1000)}};
+  write_text(d / "one_key.json", probe::path_to_json(path));
+  path.keys = {{0, Vec3d(-1500, -1000, 800)},
+               {1.5, Vec3d(0, 0, 1200)},
+               {3, Vec3d(1500, 1000, 1200)},
+               {4.25, Vec3d(1800, -1300, 2400)}};
+  write_text(d / "walk.json", probe::path_to_json(path));
+  path.keys = {{-2.5, Vec3d(0.125, -0.5, 300)}, {-1e-3, Vec3d(-1899.5, 1399, 2499)}, {1e4, Vec3d(0, 0, 101)}};
+  write_text(d / "odd_times.json", probe::path_to_json(path));
+}
+
 void daemon_seeds(const fs::path& out) {
   const fs::path d = out / "daemon_request";
   write_text(d / "status.txt", "{\"id\":1,\"cmd\":\"status\"}\n");
@@ -189,6 +226,8 @@ int main(int argc, char** argv) {
   vdobs_seeds(out);
   parameter_map_seeds(out);
   probe_seeds(out);
+  probe_room_seeds(out);
+  probe_path_seeds(out);
   daemon_seeds(out);
   fs::remove_all(scratch);
   return 0;

@@ -1,6 +1,7 @@
 #include "vdrig/probe/object_path.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -42,6 +43,11 @@ Status validate_path(const ObjectPath& path, const ProxyBox& room, double margin
     if (k > 0 && !(key.time_s > path.keys[k - 1].time_s))
       return invalid(name + " at " + number(key.time_s) + " s does not come after key " + std::to_string(k - 1) +
                      " at " + number(path.keys[k - 1].time_s) + " s (times must increase)");
+    // position_at and sample_path divide by time differences: a span beyond the largest double (times of opposite
+    // signs near 1e308) would make them inf and the positions NaN.
+    if (k > 0 && !std::isfinite(key.time_s - path.keys.front().time_s))
+      return invalid(name + " at " + number(key.time_s) + " s is too far from key 0 at " +
+                     number(path.keys.front().time_s) + " s (the path's duration must be a finite number of seconds)");
     for (int a = 0; a < 3; ++a) {
       const bool below = key.position_mm[a] <= room.min_mm[a] + margin_mm;
       const bool above = key.position_mm[a] >= room.max_mm[a] - margin_mm;
@@ -70,17 +76,24 @@ std::vector<Vec3d> sample_path(const ObjectPath& path, int frame_count) {
   std::vector<Vec3d> out;
   out.reserve(frame_count);
   const double t0 = path.keys.front().time_s;
-  for (int f = 0; f < frame_count; ++f)
-    out.push_back(position_at(path, frame_count == 1 ? t0 : t0 + path.duration_s() * f / (frame_count - 1)));
+  for (int f = 0; f < frame_count; ++f) {
+    // The last frame at the last key's time exactly (t0 + duration may round below it).
+    out.push_back(position_at(path, frame_count == 1       ? t0
+                                    : f == frame_count - 1 ? path.keys.back().time_s
+                                                           : t0 + path.duration_s() * f / (frame_count - 1)));
+  }
   return out;
 }
 
 Result<ObjectPath> path_from_json(const std::string& text) {
   const json doc = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) return corrupt("not valid JSON");
-  if (!doc.is_object() || doc.value("format", "") != kFormat)
+  // Checked by type before reading: json::value("format", "") throws on a "format" that is not a string, and
+  // get<int> wraps a version like 4294967297 to 1.
+  if (!doc.is_object() || !doc.contains("format") || !doc["format"].is_string() ||
+      doc["format"].get<std::string>() != kFormat)
     return corrupt(std::string("\"format\" must be \"") + kFormat + "\"");
-  if (!doc.contains("version") || !doc["version"].is_number_integer() || doc["version"].get<int>() != kVersion)
+  if (!doc.contains("version") || !doc["version"].is_number_integer() || doc["version"].get<int64_t>() != kVersion)
     return corrupt("\"version\" must be " + std::to_string(kVersion));
   if (!doc.contains("keys") || !doc["keys"].is_array()) return corrupt("\"keys\" must be an array");
   ObjectPath path;

@@ -144,7 +144,7 @@ Result<RoomDocument> room_from_json(const std::string& text) {
       doc["format"].get<std::string>() != kRoomFormat)
     return corrupt(std::string("room: \"format\" must be \"") + kRoomFormat + "\"");
   if (!doc.contains("version") || !doc["version"].is_number_integer() ||
-      doc["version"].get<int>() != kRoomFormatVersion)
+      doc["version"].get<int64_t>() != kRoomFormatVersion)  // get<int> would wrap 4294967297 to 1
     return corrupt("room: \"version\" must be " + std::to_string(kRoomFormatVersion));
   RoomDocument out;
   const auto room = doc.find("room_mm");

@@ -1,10 +1,13 @@
 // Bad input gives a clear error, not an abort: a probe of the wrong aspect, NaN pixels, the panorama layout written
-// back, and an object path that is empty, malformed or leaves the room (object_path.hpp).
+// back, and an object path that is empty, malformed or leaves the room (object_path.hpp), including what
+// fuzz/fuzz_probe_path found (its inputs kept in fuzz/regressions/probe_path/ are replayed here).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <limits>
 
 #include "probe_support.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/test/temp_dir.hpp"
@@ -117,6 +120,64 @@ TEST(BadInput, PathJsonRoundTripsAndMalformedJsonIsCorrupt) {
     ASSERT_FALSE(p) << bad;
     EXPECT_EQ(p.error().code, ErrorCode::kCorrupt) << bad;
   }
+}
+
+TEST(BadInput, PathJsonWithAMistypedFormatOrAWrappingVersionIsCorrupt) {
+  // json::value("format", "") threw type_error on these (found by fuzz_probe_path: an uncaught exception).
+  for (const char* bad : {R"({"format": {}})", R"({"format": 1, "version": 1, "keys": []})"}) {
+    Result<ObjectPath> p = ObjectPath{};
+    ASSERT_NO_THROW(p = path_from_json(bad)) << bad;
+    ASSERT_FALSE(p) << bad;
+    EXPECT_EQ(p.error().code, ErrorCode::kCorrupt) << bad;
+    EXPECT_NE(p.error().message.find("\"format\""), std::string::npos) << p.error().message;
+  }
+  // get<int> wrapped 2^32 + 1 to 1, so this was read as version 1.
+  auto p = path_from_json(R"({"format": "vdrig.probe.path", "version": 4294967297, "keys": []})");
+  ASSERT_FALSE(p);
+  EXPECT_NE(p.error().message.find("\"version\""), std::string::npos) << p.error().message;
+}
+
+TEST(BadInput, PathWhoseDurationOverflowsIsRejected) {
+  // -1e308 .. 1e308 s: the duration is inf, and sample_path's first frame was NaN (inf * 0).
+  ObjectPath path;
+  path.keys = {{-1e308, Vec3d(0, 0, 1000)}, {1e308, Vec3d(10, 0, 1000)}};
+  expect_error(validate_path(path, kRoom), ErrorCode::kInvalidArgument, "duration must be a finite");
+  path.keys[1].time_s = 7e307;  // a span of 1.7e308 s still fits a double
+  EXPECT_TRUE(validate_path(path, kRoom).is_ok());
+  for (const Vec3d& p : sample_path(path, 5)) EXPECT_TRUE(kRoom.contains(p)) << p.transpose();
+}
+
+TEST(BadInput, LastSampledFrameIsTheLastKeyExactly) {
+  // t0 + (t1 - t0) * 6 / 6 rounds to 16.529999999999998 < 16.53 (an independent check in plain doubles), so the
+  // last of 7 frames was interpolated just short of the last key.
+  const double t0 = 0.8, t1 = 16.53;
+  ASSERT_LT(t0 + (t1 - t0) * 6 / 6, t1);
+  ObjectPath path;
+  path.keys = {{t0, Vec3d(0, 0, 1000)}, {t1, Vec3d(10, 20, 1000)}};
+  ASSERT_TRUE(validate_path(path, kRoom).is_ok());
+  const auto frames = sample_path(path, 7);
+  EXPECT_EQ(frames.front(), path.keys.front().position_mm);
+  EXPECT_EQ(frames.back(), path.keys.back().position_mm);
+}
+
+TEST(BadInput, FuzzProbePathRegressionsParseToAValueOrAnError) {
+  const std::filesystem::path folder = std::filesystem::path(VDRIG_SOURCE_DIR) / "fuzz" / "regressions" / "probe_path";
+  if (!std::filesystem::is_directory(folder)) GTEST_SKIP() << "no " << folder;
+  int replayed = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    const auto text = read_regular_file(entry.path(), 1 << 20);
+    ASSERT_TRUE(text) << text.error().describe();
+    Result<ObjectPath> path = ObjectPath{};
+    ASSERT_NO_THROW(path = path_from_json(*text)) << entry.path();
+    ++replayed;
+    if (!path || !validate_path(*path, kRoom, 100)) continue;
+    // What fuzz_probe_path checks of a path the app would use.
+    const auto frames = sample_path(*path, 7);
+    EXPECT_EQ(frames.front(), path->keys.front().position_mm) << entry.path();
+    EXPECT_EQ(frames.back(), path->keys.back().position_mm) << entry.path();
+    for (const Vec3d& p : frames) EXPECT_TRUE(kRoom.contains(p)) << entry.path() << ": " << p.transpose();
+  }
+  EXPECT_GT(replayed, 0);
 }
 
 }  // namespace

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "probe_support.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/probe/probe_json.hpp"
 
 namespace vdrig::probe {
@@ -147,6 +149,25 @@ TEST(ProbeJson, RoomRoundTripsAndMalformedRoomsNameTheProblem) {
   expect(head + box + R"("probes": []})", "non-empty");
   expect(head + box + R"("probes": [{"position_mm": [0, 0, 0]}]})", "probe 0 needs a \"file\"");
   expect(head + box + R"("probes": [{"file": "a.exr", "position_mm": [0, 0]}]})", "\"position_mm\"");
+  // get<int> wrapped 2^32 + 1 to 1, so this room was read as version 1 (found with fuzz/fuzz_probe_room's check).
+  expect(R"({"format": "vdrig.probe.room", "version": 4294967297, )" + box + R"("probes": [{"file": "a.exr"}]})",
+         "\"version\"");
+}
+
+TEST(ProbeJson, FuzzProbeRoomRegressionsParseToAValueOrAnError) {
+  const std::filesystem::path folder = std::filesystem::path(VDRIG_SOURCE_DIR) / "fuzz" / "regressions" / "probe_room";
+  if (!std::filesystem::is_directory(folder)) GTEST_SKIP() << "no " << folder;
+  int replayed = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    const auto text = read_regular_file(entry.path(), 1 << 20);
+    ASSERT_TRUE(text) << text.error().describe();
+    Result<RoomDocument> room = RoomDocument{};
+    ASSERT_NO_THROW(room = room_from_json(*text)) << entry.path();
+    // Each kept input is one the parser wrongly accepted or crashed on: all are errors now.
+    EXPECT_FALSE(room) << entry.path();
+    ++replayed;
+  }
+  EXPECT_GT(replayed, 0);
 }
 
 }  // namespace

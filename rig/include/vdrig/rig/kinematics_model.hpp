@@ -48,6 +48,10 @@ using Mat3 = Eigen::Matrix<T, 3, 3>;
 template <typename T>
 using Vec3 = Eigen::Matrix<T, 3, 1>;
 
+// Rotations about one axis, written out rather than Eigen::AngleAxis<T>(a, Vec3<T>::UnitX()).toRotationMatrix():
+// for Ceres jets that builds the general Rodrigues matrix with jet products by the axis' zero entries, and measured
+// (GCC 12 -O3, ceres::Jet<double, 8>) surface_pose took 3x as long (6.5-6.9 us against 2.1-2.5 us per evaluation);
+// in doubles its diagonal (1 - c) + c is not always exactly 1 (12 % of poses differ, by up to 2.2e-16).
 template <typename T>
 Mat3<T> rot_x(const T& a) {
   using std::cos;
