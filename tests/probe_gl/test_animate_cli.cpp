@@ -364,12 +364,8 @@ class AnimateBadInput : public ::testing::Test {
     ASSERT_TRUE(write_file_atomic(dir_.path() / "path.json", path_to_json(p)).is_ok());
   }
   void write_raw_probe(const std::string& name, const cv::Mat& bgr) {
-    std::vector<cv::Mat> c;
-    cv::split(bgr, c);
     ExrImage exr;
-    exr.add("R", c[2]);
-    exr.add("G", c[1]);
-    exr.add("B", c[0]);
+    exr.add_bgr(bgr);
     ASSERT_TRUE(write_exr(dir_.path() / name, exr).is_ok());
   }
   // Runs animate and expects failure naming `what`, with no frame written.
