@@ -229,12 +229,8 @@ ExrImage HdrImage::to_exr() const {
   VDRIG_CHECK(radiance.type() == CV_32FC3, "HdrImage radiance must be CV_32FC3");
   VDRIG_CHECK(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == radiance.size()),
               "HdrImage mask must be CV_8UC1 of the radiance's size");
-  cv::Mat planes[3];
-  cv::split(radiance, planes);  // B, G, R
   ExrImage exr;
-  exr.add("R", planes[2]);
-  exr.add("G", planes[1]);
-  exr.add("B", planes[0]);
+  exr.add_bgr(radiance);
   cv::Mat m;
   if (mask.empty())
     m = cv::Mat::zeros(radiance.size(), CV_32FC1);

@@ -36,6 +36,15 @@ void ExrImage::add(const std::string& name, cv::Mat plane) {
   channels.push_back(plane.isContinuous() ? plane : plane.clone());
 }
 
+void ExrImage::add_bgr(const cv::Mat& bgr) {
+  VDRIG_CHECK(bgr.type() == CV_32FC3, "ExrImage::add_bgr needs a CV_32FC3 image");
+  cv::Mat planes[3];
+  cv::split(bgr, planes);  // B, G, R
+  add("R", planes[2]);
+  add("G", planes[1]);
+  add("B", planes[0]);
+}
+
 Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type) {
   if (image.channels.empty())
     return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());

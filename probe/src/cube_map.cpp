@@ -190,12 +190,8 @@ Status save_cube_map(const std::filesystem::path& path, const CubeMap& cube) {
   const int N = cube.size;
   cv::Mat strip(N, kCubeFaceCount * N, CV_32FC3);
   for (int f = 0; f < kCubeFaceCount; ++f) cube.faces[f].copyTo(strip(cv::Rect(f * N, 0, N, N)));
-  std::vector<cv::Mat> planes;
-  cv::split(strip, planes);
   ExrImage im;
-  im.add("R", planes[2]);
-  im.add("G", planes[1]);
-  im.add("B", planes[0]);
+  im.add_bgr(strip);
   im.number_attributes[kVersionAttr] = kFileVersion;
   im.string_attributes[kLayoutAttr] = kLayout;
   return write_exr(path, im);

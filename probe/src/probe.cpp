@@ -15,15 +15,6 @@ constexpr const char* kVersionAttr = "vdrig.probe.version";
 constexpr const char* kLayoutAttr = "vdrig.probe.layout";
 constexpr int kFileVersion = 1;
 
-// Adds the B, G, R planes of a float image as the file's R, G, B channels.
-void add_rgb_channels(ExrImage* im, const cv::Mat& bgr) {
-  std::vector<cv::Mat> planes;
-  cv::split(bgr, planes);
-  im->add("R", planes[2]);
-  im->add("G", planes[1]);
-  im->add("B", planes[0]);
-}
-
 std::string pose_attr(const char* what, int k) { return std::string("vdrig.probe.") + what + "." + std::to_string(k); }
 
 // Bilinear sample of a single- or three-channel float map at continuous pixel coordinates (x, y) measured so that
@@ -129,10 +120,10 @@ Status save_probe(const std::filesystem::path& path, const Probe& probe, FileAzi
     const int W = probe.width();
     cv::Mat mirrored(probe.radiance.size(), CV_32FC3);
     for (int c = 0; c < W; ++c) probe.radiance.col(((W / 2 - 1 - c) % W + W) % W).copyTo(mirrored.col(c));
-    add_rgb_channels(&im, mirrored);
+    im.add_bgr(mirrored);
     return write_exr(path, im);
   }
-  add_rgb_channels(&im, probe.radiance);
+  im.add_bgr(probe.radiance);
   if (probe.has_depth()) im.add("Z", probe.depth_mm);
   im.number_attributes[kVersionAttr] = kFileVersion;
   im.string_attributes[kLayoutAttr] = "design-notes";

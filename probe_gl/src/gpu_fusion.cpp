@@ -13,13 +13,6 @@
 namespace vdrig::probe_gl {
 namespace {
 
-const char* kVertexShader = R"(#version 330 core
-void main() {
-  vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
-  gl_Position = vec4(p, 0.0, 1.0);
-}
-)";
-
 // probe::fuse_cube (probe/src/fusion.cpp, source_sample) texel by texel; see gpu_fusion.hpp.
 const char* kFragmentShader = R"(
 out vec4 out_colour;
@@ -164,7 +157,7 @@ Result<std::unique_ptr<GpuFusion>> GpuFusion::create(const std::vector<probe::Pr
       "#version 330 core\nuniform float u_angular;  // P\nuniform float u_resolution;  // Q\n" +
       exponent_glsl("angular_term", "u_angular", options.angular_exponent) +
       exponent_glsl("resolution_term", "u_resolution", options.resolution_exponent) + kFragmentShader;
-  auto program = viewer::link_program(kVertexShader, fragment, "fusion shader");
+  auto program = viewer::link_program(viewer::kFullScreenTriangleVertexShader, fragment, "fusion shader");
   if (!program) return program.error();
   auto g = std::unique_ptr<GpuFusion>(new GpuFusion());
   g->size_ = cube_size;

@@ -31,19 +31,19 @@ TEST(CliDemo, RunsAgainOverItsOwnSessionButNeverOverAUsersFile) {
   const fs::path session = root.path() / "session";
   const std::vector<std::string> demo = {testing::vdrig_cli(), "demo",  "--out", root.path().string(), "--scheme",
                                          "latlong:2",          "--res", "4",     "--holdout",          "1"};
-  const auto first = testing::run_process(demo, 600.0);
+  const auto first = testing::run_process(demo, {600.0});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
   // What `vdrig compare` writes into the session by default (renders/compare/) is the demo's too.
   const auto compared = testing::run_process(
-      {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--holdout"}, 600.0);
+      {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--holdout"}, {600.0});
   ASSERT_EQ(compared.exit_code, 0) << compared.out << compared.err;
   EXPECT_TRUE(fs::exists(session / "renders" / "compare" / "compare.json"));
-  const auto again = testing::run_process(demo, 600.0);  // the README's `./vdrig.sh demo`, run a second time
+  const auto again = testing::run_process(demo, {600.0});  // the README's `./vdrig.sh demo`, run a second time
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(fs::exists(session / "maps" / "phong:1.exr"));
   // A user's file beside the demo's own makes the demo refuse, and nothing is deleted.
   testing::write_text(session / "maps" / "notes.txt", "my notes\n");
-  const auto refused = testing::run_process(demo, 600.0);
+  const auto refused = testing::run_process(demo, {600.0});
   EXPECT_NE(refused.exit_code, 0) << refused.out << refused.err;
   EXPECT_NE(refused.err.find("notes.txt"), std::string::npos) << "stderr: " << refused.err;
   EXPECT_TRUE(fs::exists(session / "maps" / "notes.txt"));

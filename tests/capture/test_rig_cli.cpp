@@ -53,9 +53,9 @@ class RigCli : public ::testing::Test {
     }
     testing::write_text(rig_file_, config.dump(2));
   }
-  testing::ProcessResult vdrig(std::vector<std::string> args, double timeout_s = 60.0) {
+  testing::ProcessRun vdrig(std::vector<std::string> args, double timeout_s = 60.0) {
     args.insert(args.begin(), testing::vdrig_cli());
-    return testing::run_process(args, timeout_s);
+    return testing::run_process(args, {timeout_s});
   }
   vdrig::test::TempDir dir_{"rig_cli"};
   fs::path rig_file_ = dir_.path() / "rig.json";

@@ -200,7 +200,7 @@ TEST(RigLock, ARigIsDrivenByOneProcess) {
   const auto daemon =
       testing::run_process({testing::vdrigd_exe(), "--runtime-dir", runtime.string(), "--sessions-dir",
                             (root.path() / "sessions").string(), "--rig", rig_file.string(), "--log-level", "warn"},
-                           10.0);
+                           {10.0});
   EXPECT_FALSE(daemon.timed_out) << "vdrigd served a rig another process drives";
   EXPECT_EQ(daemon.exit_code, 2);
   EXPECT_NE(daemon.err.find("rig bench-1 is " + in_use_by_us()), std::string::npos) << "stderr: " << daemon.err;

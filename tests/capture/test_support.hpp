@@ -26,6 +26,7 @@
 #include "vdrig/capture/session.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::capture::testing {
@@ -139,58 +140,9 @@ inline std::string vdrigd_exe() {
 #endif
 }
 
-/// What a finished child process left: its exit code (-1: killed by a signal or timed out), stdout and stderr.
-struct ProcessResult {
-  int exit_code = -1;
-  bool timed_out = false;
-  std::string out, err;
-};
-
-/// Runs `argv` (argv[0] is the executable's path) with stdout and stderr to files (not a terminal), killing it after
-/// `timeout_s`.
-inline ProcessResult run_process(const std::vector<std::string>& argv, double timeout_s = 120.0) {
-  static int counter = 0;
-  const std::filesystem::path base = std::filesystem::temp_directory_path() /
-                                     ("vdrig_proc_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-  const std::string out_file = base.string() + ".out", err_file = base.string() + ".err";
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int out = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    ::_exit(127);
-  }
-  ProcessResult r;
-  int status = 0;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (true) {
-    if (::waitpid(pid, &status, WNOHANG) == pid) break;
-    if (std::chrono::steady_clock::now() > deadline) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      r.timed_out = true;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  if (!r.timed_out && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-  auto slurp = [](const std::string& f) {
-    std::ifstream in(f, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  r.out = slurp(out_file);
-  r.err = slurp(err_file);
-  std::filesystem::remove(out_file);
-  std::filesystem::remove(err_file);
-  return r;
-}
+// Child processes: vdrig::test::run_process (vdrig/test/process.hpp), as in every module's tests.
+using vdrig::test::ProcessRun;
+using vdrig::test::run_process;
 
 inline void write_text(const std::filesystem::path& file, const std::string& text) {
   std::ofstream out(file, std::ios::binary);

@@ -122,7 +122,7 @@ TEST(VdrigdStart, AnInvalidRigConfigExits2WithTheReason) {
   testing::write_text(rig, R"({"stage": {"backend": "no-such-stage"}, "camera": {"backend": "sim"}})");
   const auto r = testing::run_process({testing::vdrigd_exe(), "--runtime-dir", (root.path() / "run").string(),
                                        "--sessions-dir", (root.path() / "sessions").string(), "--rig", rig.string()},
-                                      10.0);
+                                      {10.0});
   EXPECT_FALSE(r.timed_out) << "vdrigd served with an invalid rig config";
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("no-such-stage"), std::string::npos) << "stderr: " << r.err;
@@ -132,7 +132,7 @@ TEST(VdrigdStart, AnInvalidRigConfigExits2WithTheReason) {
                                "camera": {"backend": "sim"}})");
   const auto r2 = testing::run_process({testing::vdrigd_exe(), "--runtime-dir", (root.path() / "run").string(),
                                         "--sessions-dir", (root.path() / "sessions").string(), "--rig", rig.string()},
-                                       10.0);
+                                       {10.0});
   EXPECT_FALSE(r2.timed_out) << "vdrigd served with invalid backend settings";
   EXPECT_EQ(r2.exit_code, 2) << r2.err;
   EXPECT_NE(r2.err.find("camera: \"width\" = -5 is outside"), std::string::npos) << "stderr: " << r2.err;
@@ -228,7 +228,7 @@ TEST(VdrigdRefusal, ARefusedClientIsToldWhy) {
   ASSERT_TRUE(d.started()) << d.started().describe();
   for (int i = 0; i < 10; ++i) {
     const auto r = testing::run_process(
-        {testing::vdrig_cli(), "session", "status", "--runtime-dir", (root.path() / "run").string()}, 20.0);
+        {testing::vdrig_cli(), "session", "status", "--runtime-dir", (root.path() / "run").string()}, {20.0});
     EXPECT_NE(r.exit_code, 0);
     EXPECT_NE(r.err.find("peer not allowed"), std::string::npos) << "stderr: " << r.err;
     EXPECT_EQ(r.err.find("send to daemon failed"), std::string::npos) << "stderr: " << r.err;

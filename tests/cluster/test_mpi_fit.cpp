@@ -4,10 +4,8 @@
 // whose in-memory/file equivalence fitting's tests check). Skipped (CTest's skip code) when vdrig was built without
 // MPI or mpirun is absent. mpirun's flags come from one CMake variable, VDRIG_MPIEXEC_FLAGS (docs/scale.md).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -15,17 +13,14 @@
 #include <sstream>
 
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig {
 namespace {
 namespace fs = std::filesystem;
 
-struct ProcessRun {
-  int exit_code = -1;  // 124: killed by the timeout (a hang)
-  std::string out;
-  double wall_s = 0;
-};
+using vdrig::test::ProcessRun;  // exit_code 124: killed by the timeout (a hang)
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -61,17 +56,8 @@ class MpiFit : public ::testing::Test {
 
   /// `command` through the shell under a timeout, stdout and stderr captured together. The timeout only catches a
   /// hang: the one-rank Phong fit under ASan takes ~110 s alone and nearly twice that on a loaded machine.
-  ProcessRun shell(const std::string& command, int timeout_s = 480) const {
-    const fs::path out = dir_ / "output.txt";
-    const std::string cmd =
-        "timeout " + std::to_string(timeout_s) + " " + command + " >'" + out.string() + "' 2>&1 </dev/null";
-    const auto start = std::chrono::steady_clock::now();
-    const int status = std::system(cmd.c_str());
-    ProcessRun r;
-    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.out = slurp(out);
-    return r;
+  static ProcessRun shell(const std::string& command, double timeout_s = 480) {
+    return vdrig::test::run_shell(command, {.timeout_s = timeout_s, .merge_stderr = true});
   }
   ProcessRun vdrig(const std::string& args) const { return shell(std::string("'") + VDRIG_CLI_PATH + "' " + args); }
   /// `mpirun -n ranks vdrig args` with the project's flags (and --allow-run-as-root as root, as in CI).

@@ -3,18 +3,17 @@
 // in the environment run the checks against other binaries (e.g. a build from before the fixes).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "small_session.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -26,34 +25,16 @@ std::string binary(const char* env, const char* built) {
   return e && *e ? e : built;
 }
 
-struct ProcessRun {
-  int exit_code = -1;  // 124: timed out (a hang)
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using vdrig::test::ProcessRun;
 
 class CliHardening : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { dir_ = vdrig::test::fresh_temp_dir("cli_hardening"); }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
-  /// Runs `program args` under a 60 s timeout, capturing stdout and stderr.
+  /// Runs `program args` (a shell fragment) under a 60 s timeout with umask 022, capturing stdout and stderr.
   static ProcessRun run(const std::string& program, const std::string& args) {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = "umask 022; timeout 60 '" + program + "' " + args + " >'" + out.string() + "' 2>'" +
-                            err.string() + "' </dev/null";
-    const int status = std::system(cmd.c_str());
-    ProcessRun r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+    return vdrig::test::run_shell("umask 022; " + vdrig::test::shell_quote(program) + " " + args, {60});
   }
   static ProcessRun vdrig(const std::string& args) { return run(binary("VDRIG_CLI_UNDER_TEST", VDRIG_CLI_PATH), args); }
   static ProcessRun vdrigd(const std::string& args) {

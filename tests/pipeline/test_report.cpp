@@ -2,7 +2,6 @@
 // browser (Debian's chromium, headless), which must show every section, decode every image, log nothing to its
 // console and fetch nothing.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +14,7 @@
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -22,13 +22,6 @@ namespace {
 namespace fs = std::filesystem;
 
 const char* const kSections[] = {"coverage", "views", "calibration", "maps", "compare", "texels", "provenance"};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
 
 /// The text of <section id="id"> ... </section>.
 std::string section_of(const std::string& html, const std::string& id) {
@@ -76,12 +69,10 @@ TEST_F(Report, DamagedSessionIsAClearError) {
   EXPECT_FALSE(build_report_html(dir_ / "nowhere"));
 
 #ifdef VDRIG_CLI_PATH
-  const fs::path err = dir_ / "err.txt";
-  const std::string cmd = std::string(VDRIG_CLI_PATH) + " report " + (dir_ / "session").string() + " --out " +
-                          (dir_ / "r.html").string() + " > /dev/null 2> " + err.string();
-  const int status = std::system(cmd.c_str());
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0);
-  const std::string message = read_text(err);
+  const auto r = vdrig::test::run_vdrig("report " + vdrig::test::shell_quote((dir_ / "session").string()) + " --out " +
+                                        vdrig::test::shell_quote((dir_ / "r.html").string()));
+  EXPECT_TRUE(r.exit_code != 0 && r.signal == 0 && !r.timed_out) << "exit " << r.exit_code;
+  const std::string& message = r.err;
   EXPECT_EQ(std::count(message.begin(), message.end(), '\n'), 1) << "one line: " << message;
   EXPECT_NE(message.find("manifest"), std::string::npos) << message;
   EXPECT_FALSE(fs::exists(dir_ / "r.html"));
@@ -146,21 +137,31 @@ BrowserVerdict load_in_browser(const std::string& chromium, const std::string& h
   const auto head = checked.find("<head>");
   if (head == std::string::npos) return verdict.failure = "no <head>", verdict;
   checked.insert(head + 6, script);
-  const fs::path page = dir / "page.html", dom = dir / "dom.html", log = dir / "chromium.log";
+  const fs::path page = dir / "page.html";
   if (!write_file_atomic(page, checked)) return verdict.failure = "cannot write " + page.string(), verdict;
   // Headless chromium as root needs --no-sandbox; its own profile folder keeps it away from $HOME.
-  const std::string cmd =
-      "timeout 60 " + chromium +
-      " --headless --no-sandbox --disable-gpu --no-first-run --user-data-dir=" + (dir / "profile").string() +
-      " --enable-logging=stderr --v=0 --virtual-time-budget=5000 --dump-dom file://" + fs::absolute(page).string() +
-      " > " + dom.string() + " 2> " + log.string();
-  const int status = std::system(cmd.c_str());
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return verdict.failure = cmd + "\n" + read_text(log), verdict;
-  const std::string out = read_text(dom);
+  const std::vector<std::string> argv = {chromium,
+                                         "--headless",
+                                         "--no-sandbox",
+                                         "--disable-gpu",
+                                         "--no-first-run",
+                                         "--user-data-dir=" + (dir / "profile").string(),
+                                         "--enable-logging=stderr",
+                                         "--v=0",
+                                         "--virtual-time-budget=5000",
+                                         "--dump-dom",
+                                         "file://" + fs::absolute(page).string()};
+  const vdrig::test::ProcessRun run = vdrig::test::run_process(argv, {60});
+  const std::string& out = run.out;  // the DOM; chromium's log is run.err
+  if (run.exit_code != 0) {
+    verdict.failure = "chromium exited " + std::to_string(run.exit_code) + ":";
+    for (const auto& a : argv) verdict.failure += " " + a;
+    return verdict.failure += "\n" + run.err, verdict;
+  }
   const std::string open = "<pre id=\"vdrig-check\">";
   const auto start = out.find(open);
   if (start == std::string::npos)
-    return verdict.failure = "the checks did not run:\n" + out.substr(0, 2000) + read_text(log), verdict;
+    return verdict.failure = "the checks did not run:\n" + out.substr(0, 2000) + run.err, verdict;
   std::string text = out.substr(start + open.size(), out.find("</pre>", start) - start - open.size());
   for (const auto& [entity, plain] : {std::pair{"&lt;", "<"}, std::pair{"&gt;", ">"}, std::pair{"&amp;", "&"}})
     for (size_t at = text.find(entity); at != std::string::npos; at = text.find(entity, at + 1))
@@ -172,7 +173,7 @@ BrowserVerdict load_in_browser(const std::string& chromium, const std::string& h
   verdict.images = result["images"].get<int>();
   verdict.svgs = result["svgs"].get<int>();
   // Console messages of any level appear in chromium's log as "CONSOLE" lines; the report has no script of its own.
-  std::istringstream lines(read_text(log));
+  std::istringstream lines(run.err);
   for (std::string line; std::getline(lines, line);)
     if (line.find(":CONSOLE") != std::string::npos) verdict.console_lines += line + "\n";
   return verdict;

@@ -8,7 +8,6 @@
 // fails before any frame is written. Needs an OpenGL 3.3 context (xvfb-run in CI); skipped otherwise (but the bad
 // input cases, which must fail before the context is opened).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -25,6 +24,7 @@
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/probe_json.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
@@ -34,10 +34,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace probe::testing;
 
-struct CliRun {
-  int exit_code = -1;
-  std::string out, err;
-};
+using vdrig::test::ProcessRun;
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
@@ -46,13 +43,7 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-CliRun vdrig(const fs::path& dir, const std::string& args) {
-  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string cmd = std::string("timeout 300 '") + VDRIG_CLI_PATH + "' " + args + " >'" + out.string() + "' 2>'" +
-                          err.string() + "' </dev/null";
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128, slurp(out), slurp(err)};
-}
+ProcessRun vdrig(const std::string& args) { return vdrig::test::run_vdrig(args, {300}); }
 
 bool on_path(const std::string& name) { return std::system(("command -v " + name + " >/dev/null 2>&1").c_str()) == 0; }
 
@@ -130,11 +121,11 @@ class AnimateCli : public ::testing::Test {
     char cam[256];
     std::snprintf(cam, sizeof cam, "--camera %g,%g,%g --look-at %g,%g,%g --fov %g", kCamera.x(), kCamera.y(),
                   kCamera.z(), kLookAt.x(), kLookAt.y(), kLookAt.z(), kFov);
-    run_ = new CliRun(vdrig(d, "probe animate '" + (d / "room.json").string() + "' --path '" +
-                                   (d / "path.json").string() + "' --out '" + (d / "frames").string() + "' --frames " +
-                                   std::to_string(kFrames) + " --width " + std::to_string(kWidth) + " --height " +
-                                   std::to_string(kHeight) + " --cube 128 --samples " + std::to_string(kSamples) +
-                                   " --radius " + std::to_string(kRadius) + " " + cam));
+    run_ = new ProcessRun(vdrig("probe animate '" + (d / "room.json").string() + "' --path '" +
+                                (d / "path.json").string() + "' --out '" + (d / "frames").string() + "' --frames " +
+                                std::to_string(kFrames) + " --width " + std::to_string(kWidth) + " --height " +
+                                std::to_string(kHeight) + " --cube 128 --samples " + std::to_string(kSamples) +
+                                " --radius " + std::to_string(kRadius) + " " + cam));
   }
   static void TearDownTestSuite() {
     // VDRIG_KEEP_ANIMATION=DIR keeps the probes, room, path and frames for looking at them.
@@ -164,7 +155,7 @@ class AnimateCli : public ::testing::Test {
 
   static inline bool gl_ = false;
   static inline vdrig::test::TempDir* dir_ = nullptr;
-  static inline CliRun* run_ = nullptr;
+  static inline ProcessRun* run_ = nullptr;
   static inline std::vector<Probe> probes_;
   static inline ObjectPath path_;
   json meta_;
@@ -340,14 +331,12 @@ TEST_F(AnimateCli, WritesAnMp4WhenFfmpegIsOnPath) {
   if (!on_path("ffmpeg") || !on_path("ffprobe")) GTEST_SKIP() << "ffmpeg/ffprobe not on PATH: no MP4 to check";
   const fs::path mp4 = frames() / "animation.mp4";
   ASSERT_TRUE(fs::exists(mp4)) << run_->out;
-  const CliRun r{};
-  const std::string cmd =
+  const ProcessRun probe = vdrig::test::run_shell(
       "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
-      "stream=nb_read_frames,width,height -of csv=p=0 '" +
-      mp4.string() + "' > '" + (dir_->path() / "ffprobe.txt").string() + "'";
-  ASSERT_EQ(std::system(cmd.c_str()), 0);
-  EXPECT_EQ(slurp(dir_->path() / "ffprobe.txt"),
-            std::to_string(kWidth) + "," + std::to_string(kHeight) + "," + std::to_string(kFrames) + "\n");
+      "stream=nb_read_frames,width,height -of csv=p=0 " +
+      vdrig::test::shell_quote(mp4.string()));
+  ASSERT_EQ(probe.exit_code, 0) << probe.err;
+  EXPECT_EQ(probe.out, std::to_string(kWidth) + "," + std::to_string(kHeight) + "," + std::to_string(kFrames) + "\n");
 }
 
 // ---- bad input: a clear error, and no frame written -------------------------------------------------------------
@@ -375,19 +364,15 @@ class AnimateBadInput : public ::testing::Test {
     ASSERT_TRUE(write_file_atomic(dir_.path() / "path.json", path_to_json(p)).is_ok());
   }
   void write_raw_probe(const std::string& name, const cv::Mat& bgr) {
-    std::vector<cv::Mat> c;
-    cv::split(bgr, c);
     ExrImage exr;
-    exr.add("R", c[2]);
-    exr.add("G", c[1]);
-    exr.add("B", c[0]);
+    exr.add_bgr(bgr);
     ASSERT_TRUE(write_exr(dir_.path() / name, exr).is_ok());
   }
   // Runs animate and expects failure naming `what`, with no frame written.
   void expect_error(const std::string& what) {
-    const CliRun r = vdrig(dir_.path(), "probe animate '" + (dir_.path() / "room.json").string() + "' --path '" +
-                                            (dir_.path() / "path.json").string() + "' --out '" +
-                                            (dir_.path() / "frames").string() + "' --frames 2 --width 16 --height 16");
+    const ProcessRun r = vdrig("probe animate '" + (dir_.path() / "room.json").string() + "' --path '" +
+                               (dir_.path() / "path.json").string() + "' --out '" + (dir_.path() / "frames").string() +
+                               "' --frames 2 --width 16 --height 16");
     EXPECT_NE(r.exit_code, 0);
     EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(dir_.path() / "frames" / "frame_0000.png")) << what;

@@ -2,7 +2,6 @@
 // and the map's model, the curve must follow the great circle through the peak, held-out views must be marked;
 // pick_texel must find the texel under a pixel; `vdrig inspect` must plot a fitted session's texel.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/interactive.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"
@@ -152,30 +152,28 @@ TEST(Inspect, CommandPlotsAFittedTexel) {
   const vdrig::test::TempDir dir("inspect_cli");
   auto session = pipeline::test::small_merged_session(dir / "session");
   ASSERT_TRUE(session) << session.error().describe();
-  const std::string cli = std::string("timeout 120 '") + VDRIG_CLI_PATH + "' ";
-  const std::string quiet = " >'" + (dir / "out.txt").string() + "' 2>&1";
-  ASSERT_EQ(std::system((cli + "fit '" + (dir / "session").string() + "' --res 8x8 --holdout 2 --out '" +
-                         (dir / "map.exr").string() + "'" + quiet)
-                            .c_str()),
-            0);
+  using vdrig::test::run_vdrig;
+  using vdrig::test::shell_quote;
+  const std::string session_dir = shell_quote((dir / "session").string()),
+                    map_file = shell_quote((dir / "map.exr").string());
+  const auto fitted = run_vdrig("fit " + session_dir + " --res 8x8 --holdout 2 --out " + map_file, {120});
+  ASSERT_EQ(fitted.exit_code, 0) << fitted.err;
   auto map = fitting::ParameterMap::read(dir / "map.exr");
   ASSERT_TRUE(map) << map.error().describe();
   EXPECT_EQ(held_out_views(map.value()).size(), 2u) << "vdrig fit records the held-out views";
-  const int status =
-      std::system((cli + "inspect '" + (dir / "map.exr").string() + "' --session '" + (dir / "session").string() +
-                   "' --texel 3,4 --out '" + (dir / "plot.png").string() + "'" + quiet)
-                      .c_str());
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  const auto inspected = run_vdrig("inspect " + map_file + " --session " + session_dir + " --texel 3,4 --out " +
+                                       shell_quote((dir / "plot.png").string()),
+                                   {120});
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.err;
   auto plot = read_png(dir / "plot.png");
   ASSERT_TRUE(plot) << plot.error().describe();
   EXPECT_EQ(plot->cols, 960);
   EXPECT_EQ(plot->rows, 540);
   // A texel outside the map is a usage error.
-  const int bad =
-      std::system((cli + "inspect '" + (dir / "map.exr").string() + "' --session '" + (dir / "session").string() +
-                   "' --texel 8,0 --out '" + (dir / "bad.png").string() + "'" + quiet)
-                      .c_str());
-  EXPECT_EQ(WEXITSTATUS(bad), 2);
+  const auto bad = run_vdrig("inspect " + map_file + " --session " + session_dir + " --texel 8,0 --out " +
+                                 shell_quote((dir / "bad.png").string()),
+                             {120});
+  EXPECT_EQ(bad.exit_code, 2);
 }
 
 }  // namespace

@@ -3,13 +3,10 @@
 // for a map holding the simulator's ground-truth Phong parameters. Plus the tone-mapped PNG and the usage errors.
 // Needs an X display with OpenGL 3.3 (xvfb-run in CI); skipped with the reason otherwise.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "../pipeline/small_session.hpp"
 #include "cpu_reference.hpp"
@@ -18,6 +15,7 @@
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/sim/scene.hpp"
+#include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/headless.hpp"
 #include "vdrig/viewer/interactive.hpp"
@@ -26,21 +24,9 @@ namespace vdrig::viewer {
 namespace {
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int exit_code = -1;
-  std::string err;
-};
+using vdrig::test::ProcessRun;
 
-CliRun vdrig(const fs::path& dir, const std::string& args) {
-  const fs::path err = dir / "stderr.txt";
-  const std::string cmd =
-      std::string("timeout 60 '") + VDRIG_CLI_PATH + "' " + args + " >/dev/null 2>'" + err.string() + "' </dev/null";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(err);
-  std::stringstream s;
-  s << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128, s.str()};
-}
+ProcessRun vdrig(const std::string& args) { return vdrig::test::run_vdrig(args, {60}); }
 
 /// A frame of an EXR written by `vdrig render` as BGR CV_32FC3.
 cv::Mat read_frame(const fs::path& path) {
@@ -74,9 +60,9 @@ TEST_F(RenderCli, OrbitFrameMatchesTheCpuEvaluationOfTheModel) {
       fitting::set_phong_texel(map, s, t, p);
     }
   ASSERT_TRUE(map.write(dir_ / "map.exr"));
-  const CliRun r = vdrig(dir_, "render '" + (dir_ / "map.exr").string() +
-                                   "' --azimuth 30 --zenith 40 --distance 1200 --size 96x72 --samples 1 --out '" +
-                                   (dir_ / "frame.exr").string() + "'");
+  const ProcessRun r = vdrig("render '" + (dir_ / "map.exr").string() +
+                             "' --azimuth 30 --zenith 40 --distance 1200 --size 96x72 --samples 1 --out '" +
+                             (dir_ / "frame.exr").string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const cv::Mat frame = read_frame(dir_ / "frame.exr");
   ASSERT_EQ(frame.cols, 96);
@@ -100,9 +86,9 @@ TEST_F(RenderCli, OrbitFrameMatchesTheCpuEvaluationOfTheModel) {
   EXPECT_LT(worst, 1e-3) << "worst relative difference over " << compared << " pixels";
 
   // The PNG is the same frame tone mapped.
-  ASSERT_EQ(vdrig(dir_, "render '" + (dir_ / "map.exr").string() +
-                            "' --azimuth 30 --zenith 40 --distance 1200 --size 96x72 --samples 1 --gamma 2 --out '" +
-                            (dir_ / "frame.png").string() + "'")
+  ASSERT_EQ(vdrig("render '" + (dir_ / "map.exr").string() +
+                  "' --azimuth 30 --zenith 40 --distance 1200 --size 96x72 --samples 1 --gamma 2 --out '" +
+                  (dir_ / "frame.png").string() + "'")
                 .exit_code,
             0);
   auto png = read_png(dir_ / "frame.png");
@@ -137,9 +123,8 @@ TEST_F(RenderCli, CapturedViewOfGroundTruthMatchesThePhotograph) {
   ASSERT_TRUE(map.write(dir_ / "truth.exr"));
 
   const int view = static_cast<int>(geometry->poses.size()) - 1;  // the most oblique ring
-  const CliRun r =
-      vdrig(dir_, "render '" + (dir_ / "truth.exr").string() + "' --session '" + session_dir.string() + "' --view " +
-                      std::to_string(view) + " --out '" + (dir_ / "view.exr").string() + "'");
+  const ProcessRun r = vdrig("render '" + (dir_ / "truth.exr").string() + "' --session '" + session_dir.string() +
+                             "' --view " + std::to_string(view) + " --out '" + (dir_ / "view.exr").string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const cv::Mat render = read_frame(dir_ / "view.exr");
   auto photo = calib::read_hdr_exr(session->layout().hdr_file(view));
@@ -178,9 +163,9 @@ TEST_F(RenderCli, RefusesBadArguments) {
   fitting::ParameterMap map(fitting::parse_model("phong:1").value(), 4, 4, 100.0, 100.0);
   ASSERT_TRUE(map.write(dir_ / "map.exr"));
   const std::string m = "render '" + (dir_ / "map.exr").string() + "' ";
-  EXPECT_EQ(vdrig(dir_, m + "--out '" + (dir_ / "x.jpg").string() + "'").exit_code, 2);
-  EXPECT_EQ(vdrig(dir_, m + "--view 0 --out '" + (dir_ / "x.png").string() + "'").exit_code, 2);
-  EXPECT_EQ(vdrig(dir_, m + "--zenith 95 --out '" + (dir_ / "x.png").string() + "'").exit_code, 2);
+  EXPECT_EQ(vdrig(m + "--out '" + (dir_ / "x.jpg").string() + "'").exit_code, 2);
+  EXPECT_EQ(vdrig(m + "--view 0 --out '" + (dir_ / "x.png").string() + "'").exit_code, 2);
+  EXPECT_EQ(vdrig(m + "--zenith 95 --out '" + (dir_ / "x.png").string() + "'").exit_code, 2);
   EXPECT_FALSE(fs::exists(dir_ / "x.png"));
 }
 

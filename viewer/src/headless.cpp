@@ -18,21 +18,14 @@ Result<cv::Mat> render_map_radiance(const fitting::ParameterMap& map, const Came
   return renderer.value()->render_radiance(camera, pose, settings);
 }
 
-ExrImage radiance_exr(const cv::Mat& radiance_bgr) {
-  VDRIG_CHECK(radiance_bgr.type() == CV_32FC3, "radiance_exr needs CV_32FC3");
-  std::vector<cv::Mat> bgr;
-  cv::split(radiance_bgr, bgr);
-  ExrImage exr;
-  exr.add("R", bgr[2]);
-  exr.add("G", bgr[1]);
-  exr.add("B", bgr[0]);
-  return exr;
-}
-
 Status write_frame(const std::filesystem::path& path, const cv::Mat& radiance_bgr, double gamma) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (ext == ".exr") return write_exr(path, radiance_exr(radiance_bgr));
+  if (ext == ".exr") {
+    ExrImage exr;
+    exr.add_bgr(radiance_bgr);
+    return write_exr(path, exr);
+  }
   if (ext == ".png") return write_png(path, tone_map(radiance_bgr, gamma));
   return make_error(ErrorCode::kInvalidArgument,
                     "--out must end in .png (tone mapped) or .exr (linear radiance): " + path.string());

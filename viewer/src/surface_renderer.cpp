@@ -16,14 +16,6 @@
 namespace vdrig::viewer {
 namespace {
 
-// Full-screen triangle; the fragment shader does all the work.
-const char* kVertexShader = R"(#version 330 core
-void main() {
-  vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
-  gl_Position = vec4(p, 0.0, 1.0);
-}
-)";
-
 // The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head and tail (model_glsl()), after
 // `vec4 g_params[L]`: the texel's parameter layers, fetched once per texel by load_params (the model reads its
 // parameters from there; fetching per parameter made texture fetches most of a fragment's cost on llvmpipe).
@@ -163,7 +155,8 @@ std::string GlContext::renderer() const {
 
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
   const std::string model = model_glsl(map);
-  auto program = link_program(kVertexShader, std::string(kFragmentHead) + model + kFragmentTail, "surface shader");
+  auto program = link_program(kFullScreenTriangleVertexShader, std::string(kFragmentHead) + model + kFragmentTail,
+                              "surface shader");
   if (!program) return program.error();
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
   r->program_ = program.value();

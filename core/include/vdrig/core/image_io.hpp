@@ -26,6 +26,10 @@ struct ExrImage {
   int find(const std::string& name) const;
   /// Adds a CV_32FC1 plane (size must match; the first plane sets the size).
   void add(const std::string& name, cv::Mat plane);
+  /// Adds a colour image in OpenCV's order (CV_32FC3, planes B, G, R) as the channels "R", "G", "B": R is the
+  /// third plane, B the first. The one place where vdrig turns a BGR cv::Mat into an RGB file (radiance, probes,
+  /// cube maps, rendered frames); what `add` requires of a plane holds for each (abort otherwise).
+  void add_bgr(const cv::Mat& bgr);
 };
 
 enum class ExrPixelType { kHalf, kFloat };

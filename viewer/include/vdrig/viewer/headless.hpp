@@ -18,10 +18,8 @@ namespace vdrig::viewer {
 Result<cv::Mat> render_map_radiance(const fitting::ParameterMap& map, const CameraModel& camera, const ViewPose& pose,
                                     const RenderSettings& settings = {});
 
-/// A BGR CV_32FC3 image as an OpenEXR image of channels R, G, B (linear radiance, the map's units).
-ExrImage radiance_exr(const cv::Mat& radiance_bgr);
-
-/// Writes a frame by the file's extension: ".exr" linear radiance (radiance_exr), ".png" tone mapped
+/// Writes a frame by the file's extension: ".exr" linear radiance in channels R, G, B (ExrImage::add_bgr; the map's
+/// units), ".png" tone mapped
 /// (tone_map(radiance, gamma)); any other extension is kInvalidArgument.
 Status write_frame(const std::filesystem::path& path, const cv::Mat& radiance_bgr, double gamma);
 
