@@ -2,6 +2,7 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -23,10 +24,11 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   if (!samples) return samples.error();
   auto truth = ground_truth_of(req.rig_config);
   if (!truth) return truth.error();
-  // The stage's geometry: the simulator knows it; a hardware rig config states it ("geometry": {"distance_mm"}).
-  rig::RigGeometry geometry;
-  if (*truth) geometry = (*truth)->geometry;
-  const auto plan = capture::plan_targets(geometry, rig->stage->spec(), samples->directions);
+  // Aimed with the geometry the user states (capture::geometry_from_rig_config), as vdrig capture does: a simulated
+  // rig's hidden imperfections are what a calibration finds, not something planning may know.
+  auto geometry = capture::geometry_from_rig_config(req.rig_config);
+  if (!geometry) return geometry.error();
+  const auto plan = capture::plan_targets(geometry.value(), rig->stage->spec(), samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);
     logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits", u.index,

@@ -25,8 +25,9 @@ struct CaptureRequest {
 };
 
 /// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
-/// The stage geometry and the surface size come from the simulator's ground truth for a simulated rig; a hardware rig
-/// gets the defaults of rig::RigGeometry and capture::Manifest (its config's "geometry" section is not read here).
+/// The views are aimed with capture::geometry_from_rig_config (the config's "geometry" section, else the ideal rig at
+/// the simulator's distance); the surface size comes from the simulator's ground truth for a simulated rig, a
+/// hardware rig gets capture::Manifest's defaults.
 Result<capture::Session> capture_session(const CaptureRequest& request);
 
 }  // namespace vdrig::pipeline
