@@ -9,6 +9,7 @@
 namespace vdrig::capture {
 
 Result<rig::RigGeometry> geometry_from_rig_config(const nlohmann::json& rc) {
+  if (rc.is_null()) return rig::RigGeometry{};  // a plan without a rig config (library use): the ideal rig
   if (!rc.is_object()) return make_error(ErrorCode::kInvalidArgument, "rig config must be a JSON object");
   if (rc.contains("geometry")) return rig::geometry_from_section(rc["geometry"]);
   rig::RigGeometry g;

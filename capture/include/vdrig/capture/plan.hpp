@@ -27,7 +27,7 @@ struct PlanRequest {
 ///    calibrated), validated: unknown keys, wrong types and out-of-range values are kInvalidArgument naming the key;
 ///  - else, for a simulated rig, the ideal rig at the simulator's "distance_mm" (never its hidden pan_zero_deg,
 ///    tilt_zero_deg, pan_axis_tilt_deg or surface_offset_mm: those are the truth a calibration has to find);
-///  - else the ideal rig of rig::RigGeometry's defaults (2500 mm).
+///  - else (or for a null config) the ideal rig of rig::RigGeometry's defaults (2500 mm).
 Result<rig::RigGeometry> geometry_from_rig_config(const nlohmann::json& rig_config);
 
 /// `rig_config` with its "geometry" section replaced by the kinematic fit of a calibration (the "kinematics" of a
