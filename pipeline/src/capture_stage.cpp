@@ -24,10 +24,12 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   if (!samples) return samples.error();
   auto truth = ground_truth_of(req.rig_config);
   if (!truth) return truth.error();
-  // Aimed with the geometry the user states (capture::geometry_from_rig_config), as vdrig capture does: a simulated
-  // rig's hidden imperfections are what a calibration finds, not something planning may know.
+  // Aimed with the config's stated "geometry" when it has one (as vdrig capture is); otherwise, unlike vdrig capture,
+  // with the simulator's truth: this helper makes the reference sessions of the demo and the pipeline tests, whose
+  // views must land where they were planned (test_calibrated's fixture is measured on them).
   auto geometry = capture::geometry_from_rig_config(req.rig_config);
   if (!geometry) return geometry.error();
+  if (!req.rig_config.contains("geometry") && *truth) geometry = (*truth)->geometry;
   const auto plan = capture::plan_targets(geometry.value(), rig->stage->spec(), samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);

@@ -200,5 +200,27 @@ TEST(CliGeometry, CaptureWithGeometryRecordsTheFitAndRejectsBadFilesLeavingNoSes
   }
 }
 
+TEST(CliGeometry, VdrigdRefusesToStartWithABadGeometry) {
+  vdrig::test::TempDir root("vdrigd_geometry");
+  fs::create_directories(root.path() / "sessions");
+  const fs::path rig_file = root.path() / "rig.json";
+  json rc = imperfect_sim_config();
+  rc["geometry"] = {{"distance_mm", 2000.0}, {"pan_zero_deg", "3"}};
+  testing::write_text(rig_file, rc.dump(2));
+  const std::vector<std::string> daemon = {testing::vdrigd_exe(), "--sessions-dir", (root.path() / "sessions").string(),
+                                           "--runtime-dir", (root.path() / "run").string()};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> argv = daemon;
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return testing::run_process(argv, 30.0);
+  };
+  const auto bad_section = with({"--rig", rig_file.string()});
+  EXPECT_EQ(bad_section.exit_code, 2) << bad_section.out << bad_section.err;
+  EXPECT_NE((bad_section.out + bad_section.err).find("pan_zero_deg"), std::string::npos) << bad_section.err;
+  const auto missing = with({"--geometry", (root.path() / "missing.json").string()});
+  EXPECT_EQ(missing.exit_code, 2) << missing.out << missing.err;
+  EXPECT_NE((missing.out + missing.err).find("missing.json"), std::string::npos) << missing.err;
+}
+
 }  // namespace
 }  // namespace vdrig::capture
