@@ -27,7 +27,9 @@ Result<nlohmann::json> with_fitted_geometry(const nlohmann::json& rig_config, co
   auto fitted = rig::read_fitted_geometry(views_json);
   if (!fitted) return fitted.error();
   nlohmann::json rc = rig_config;
-  rc["geometry"] = rig::geometry_section(fitted.value(), "kinematic fit of " + views_json.string());
+  std::error_code ec;  // the provenance names the file wherever the session is read later
+  const std::filesystem::path absolute = std::filesystem::absolute(views_json, ec);
+  rc["geometry"] = rig::geometry_section(fitted.value(), "kinematic fit of " + (ec ? views_json : absolute).string());
   return rc;
 }
 
