@@ -24,6 +24,7 @@ struct CaptureArgs {
   std::string bracket = "auto";
   std::string out;
   std::string resume;
+  std::string geometry;  // a calibration's views.json: its kinematic fit becomes the rig config's "geometry"
   std::string runtime_dir = capture::default_runtime_dir().string();  // where rig locks live (as vdrigd's)
   double reserve_mb = 256;
   capture::RetryPolicy retry;  // device faults: attempts in all and the backoff between them
@@ -48,6 +49,9 @@ Status run(const CaptureArgs& a) {
     rig_lock = std::move(held.value());
     return Status::ok();
   };
+  if (!a.resume.empty() && !a.geometry.empty())
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--geometry plans a new session; a resumed one keeps the geometry its manifest records");
   if (!a.resume.empty()) {
     // Locked before the journal is read: another process capturing into it is refused with its PID.
     auto s = capture::Session::open_for_capture(a.resume);
@@ -64,6 +68,11 @@ Status run(const CaptureArgs& a) {
       auto file = read_json_file(a.rig);
       if (!file) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + file.error().message);
       rc = std::move(file.value());
+    }
+    if (!a.geometry.empty()) {
+      auto fitted = capture::with_fitted_geometry(rc, a.geometry);
+      if (!fitted) return make_error(ErrorCode::kInvalidArgument, "--geometry: " + fitted.error().message);
+      rc = std::move(fitted.value());
     }
     VDRIG_TRY(lock_rig(rc));
     auto rig = registry.make_rig(rc);
@@ -118,6 +127,9 @@ CommandRegistrar reg([](CLI::App& root) {
   cmd->add_option("--bracket", a->bracket, "fixed:E1,E2,... or auto[:CEIL[:FLOOR]][@X,Y,W,H]")->capture_default_str();
   cmd->add_option("--out", a->out, "new session folder");
   cmd->add_option("--resume", a->resume, "session folder to resume (rig config from its manifest)");
+  cmd->add_option("--geometry", a->geometry,
+                  "aim with a calibrated rig: a views.json whose kinematic fit (vdrig calib extrinsics) replaces the "
+                  "rig config's \"geometry\" (recorded in the manifest)");
   cmd->add_option("--reserve-mb", a->reserve_mb, "free disk space to keep, MiB")->capture_default_str();
   cmd->add_option("--device-attempts", a->retry.max_attempts,
                   "attempts of a device call (stage, camera) before the session stops with the fault")

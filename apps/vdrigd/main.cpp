@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/plan.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   std::string runtime_dir = capture::default_runtime_dir().string();
   std::string sessions_dir;
   std::string rig_file;
+  std::string geometry_file;
   std::string scene = "patchwork";
   std::string level = "info";
   long allowed_gid = -1;
@@ -34,6 +36,9 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig_file, "rig config JSON (default: the simulator)");
   app.add_option("--scene", scene, "simulator scene (a built-in name or a scene FILE.json) when no --rig is given")
       ->capture_default_str();
+  app.add_option("--geometry", geometry_file,
+                 "a calibration's views.json: its kinematic fit becomes the rig config's \"geometry\" (planning aims "
+                 "with it)");
   app.add_option("--allowed-gid", allowed_gid, "also accept clients of this group");
   app.add_option("--reserve-mb", reserve_mb, "free disk space to keep, MiB")->capture_default_str();
   app.add_option("--log-level", level, log::kLevelNames)->capture_default_str();
@@ -74,6 +79,19 @@ int main(int argc, char** argv) {
     config.rig_config = std::move(file.value());
   } else {
     config.rig_config = sim::sim_rig_config({{"scene", scene}});
+  }
+  if (!geometry_file.empty()) {
+    auto fitted = capture::with_fitted_geometry(config.rig_config, geometry_file);
+    if (!fitted) {
+      logger->error("--geometry: {}", fitted.error().message);
+      return 2;
+    }
+    config.rig_config = std::move(fitted.value());
+  }
+  // The geometry is checked now, not at the first start request.
+  if (auto g = capture::geometry_from_rig_config(config.rig_config); !g) {
+    logger->error("{}", g.error().message);
+    return 2;
   }
   auto registry = std::make_shared<rig::BackendRegistry>(pipeline::full_registry());
   config.make_rig = [registry](const nlohmann::json& rc) { return registry->make_rig(rc); };

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/rig/geometry_config.hpp"
 
 namespace vdrig::calib {
 namespace {
@@ -324,15 +325,7 @@ Result<KinematicFit> fit_rig_geometry(std::span<const KinematicObservation> obs)
   return fit;
 }
 
-nlohmann::json KinematicFit::geometry_to_json(const rig::RigGeometry& g) {
-  const Vec3d& o = g.surface_offset_mm;
-  return {{"camera_distance_mm", g.camera_distance_mm},
-          {"surface_offset_mm", {o.x(), o.y(), o.z()}},
-          {"pan_zero_deg", rad_to_deg(g.pan_zero_rad)},
-          {"tilt_zero_deg", rad_to_deg(g.tilt_zero_rad)},
-          {"pan_axis_tilt_x_deg", rad_to_deg(g.pan_axis_tilt_x_rad)},
-          {"pan_axis_tilt_y_deg", rad_to_deg(g.pan_axis_tilt_y_rad)}};
-}
+nlohmann::json KinematicFit::geometry_to_json(const rig::RigGeometry& g) { return rig::kinematics_to_json(g); }
 
 nlohmann::json KinematicFit::to_json() const {
   nlohmann::json j = geometry_to_json(geometry);
@@ -355,22 +348,7 @@ nlohmann::json KinematicFit::to_json() const {
 }
 
 Result<rig::RigGeometry> KinematicFit::geometry_from_json(const nlohmann::json& j) {
-  try {
-    rig::RigGeometry g;
-    g.camera_distance_mm = j.at("camera_distance_mm").get<double>();
-    const auto& o = j.at("surface_offset_mm");
-    g.surface_offset_mm = {o.at(0).get<double>(), o.at(1).get<double>(), o.at(2).get<double>()};
-    g.pan_zero_rad = deg_to_rad(j.value("pan_zero_deg", 0.0));
-    g.tilt_zero_rad = deg_to_rad(j.value("tilt_zero_deg", 0.0));
-    g.pan_axis_tilt_x_rad = deg_to_rad(j.value("pan_axis_tilt_x_deg", 0.0));
-    g.pan_axis_tilt_y_rad = deg_to_rad(j.value("pan_axis_tilt_y_deg", 0.0));
-    const model::Params p = model::to_params(g);
-    if (!std::all_of(p.begin(), p.end(), [](double v) { return std::isfinite(v); }) || !(g.camera_distance_mm > 0))
-      return make_error(ErrorCode::kCorrupt, "kinematics: non-finite values or a non-positive camera distance");
-    return g;
-  } catch (const nlohmann::json::exception& e) {
-    return make_error(ErrorCode::kCorrupt, std::string("kinematics: ") + e.what());
-  }
+  return rig::kinematics_from_json(j);
 }
 
 }  // namespace vdrig::calib

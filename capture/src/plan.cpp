@@ -3,20 +3,34 @@
 #include "vdrig/capture/bracket.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/settings.hpp"
+#include "vdrig/rig/geometry_config.hpp"
 
 namespace vdrig::capture {
 
-rig::RigGeometry geometry_from_rig_config(const nlohmann::json& rc) {
+Result<rig::RigGeometry> geometry_from_rig_config(const nlohmann::json& rc) {
+  if (rc.is_null()) return rig::RigGeometry{};  // a plan without a rig config (library use): the ideal rig
+  if (!rc.is_object()) return make_error(ErrorCode::kInvalidArgument, "rig config must be a JSON object");
+  if (rc.contains("geometry")) return rig::geometry_from_section(rc["geometry"]);
   rig::RigGeometry g;
-  try {
-    if (rc.contains("geometry") && rc["geometry"].contains("distance_mm"))
-      g.camera_distance_mm = rc["geometry"]["distance_mm"].get<double>();
-    else if (rc.contains("sim") && rc["sim"].contains("distance_mm"))
-      g.camera_distance_mm = rc["sim"]["distance_mm"].get<double>();
-  } catch (const nlohmann::json::exception&) {
-    // Wrong types are reported by the backend's own validation when the rig is built.
+  if (rc.contains("sim")) {
+    // Only the distance, which the user sets up and knows; the simulator's other geometry is its hidden truth.
+    Settings s(rc["sim"], "sim");
+    g.camera_distance_mm = s.number("distance_mm", g.camera_distance_mm, 1e-3);
+    if (!s.is_valid(nullptr)) return s.error();
   }
   return g;
+}
+
+Result<nlohmann::json> with_fitted_geometry(const nlohmann::json& rig_config, const std::filesystem::path& views_json) {
+  if (!rig_config.is_object()) return make_error(ErrorCode::kInvalidArgument, "rig config must be a JSON object");
+  auto fitted = rig::read_fitted_geometry(views_json);
+  if (!fitted) return fitted.error();
+  nlohmann::json rc = rig_config;
+  std::error_code ec;  // the provenance names the file wherever the session is read later
+  const std::filesystem::path absolute = std::filesystem::absolute(views_json, ec);
+  rc["geometry"] = rig::geometry_section(fitted.value(), "kinematic fit of " + (ec ? views_json : absolute).string());
+  return rc;
 }
 
 Result<Manifest> plan_manifest(const PlanRequest& req) {
@@ -25,7 +39,9 @@ Result<Manifest> plan_manifest(const PlanRequest& req) {
   if (!bracket) return bracket.error();
   auto samples = generate(req.scheme);
   if (!samples) return samples.error();
-  const auto plan = plan_targets(geometry_from_rig_config(req.rig_config), req.stage, samples->directions);
+  auto geometry = geometry_from_rig_config(req.rig_config);
+  if (!geometry) return geometry.error();
+  const auto plan = plan_targets(geometry.value(), req.stage, samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);
     logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits", u.index,

@@ -2,6 +2,7 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/capture/capture.hpp"
+#include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -23,10 +24,13 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   if (!samples) return samples.error();
   auto truth = ground_truth_of(req.rig_config);
   if (!truth) return truth.error();
-  // The stage's geometry: the simulator knows it; a hardware rig config states it ("geometry": {"distance_mm"}).
-  rig::RigGeometry geometry;
-  if (*truth) geometry = (*truth)->geometry;
-  const auto plan = capture::plan_targets(geometry, rig->stage->spec(), samples->directions);
+  // Aimed with the config's stated "geometry" when it has one (as vdrig capture is); otherwise, unlike vdrig capture,
+  // with the simulator's truth: this helper makes the reference sessions of the demo and the pipeline tests, whose
+  // views must land where they were planned (test_calibrated's fixture is measured on them).
+  auto geometry = capture::geometry_from_rig_config(req.rig_config);
+  if (!geometry) return geometry.error();
+  if (!req.rig_config.contains("geometry") && *truth) geometry = (*truth)->geometry;
+  const auto plan = capture::plan_targets(geometry.value(), rig->stage->spec(), samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);
     logger->warn("direction {} (azimuth {:.1f} deg, zenith {:.1f} deg) is unreachable within the axis limits", u.index,

@@ -4,6 +4,7 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/calib/hdr.hpp"
+#include "vdrig/capture/plan.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/hdr_stage.hpp"
 
@@ -108,11 +109,11 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
   }
   if (!layout.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "marker layout: " + why);
 
-  // The nominal rig: the configured camera distance, no surface offset (what the calibration measures).
-  rig::RigGeometry nominal;
-  if (truth) nominal.camera_distance_mm = truth->geometry.camera_distance_mm;
-  if (rc.contains("geometry") && rc["geometry"].contains("distance_mm"))
-    nominal.camera_distance_mm = rc["geometry"]["distance_mm"].get<double>();
+  // The nominal rig, the views' first guess: the geometry the session was planned with (its config's "geometry", or
+  // the ideal rig at the configured distance; never the simulator's hidden truth), which the calibration measures.
+  auto nominal_or = capture::geometry_from_rig_config(rc);
+  if (!nominal_or) return nominal_or.error();
+  const rig::RigGeometry nominal = nominal_or.value();
 
   VDRIG_TRY(merge_session_hdr(session));
   calib::ExtrinsicsOptions ext;

@@ -7,6 +7,7 @@
 #include "stepdir_stage.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/rig/bringup.hpp"
+#include "vdrig/rig/geometry_config.hpp"
 #include "vdrig/rig/motion.hpp"
 #ifdef VDRIG_HAVE_MODBUS
 #include "modbus_stage.hpp"
@@ -215,6 +216,14 @@ ConfigCheck check_rig_config(const json& config, const BackendRegistry& registry
     }
     auto effective = parse_section(kind, backend, section, check.problems);
     check.effective[kind] = effective ? *effective : section;
+  }
+  if (config.contains("geometry")) {
+    auto g = geometry_from_section(config["geometry"]);
+    if (g) {
+      check.effective["geometry"] = geometry_section(g.value(), config["geometry"].value("source", ""));
+    } else {
+      check.problems.push_back(g.error().message);
+    }
   }
   return check;
 }

@@ -8,6 +8,7 @@
 
 #include "vdrig/core/log.hpp"
 #include "vdrig/core/settings.hpp"
+#include "vdrig/rig/geometry_config.hpp"
 #include "vdrig/rig/motion.hpp"
 
 namespace vdrig::sim {
@@ -125,15 +126,7 @@ bool SimConfig::is_valid(std::string* why) const {
   if (!sensor.is_valid(why)) return false;
   if (samples_per_axis < 1 || samples_per_axis > 8) return fail("samples_per_axis must be 1..8");
   if (time_scale < 0) return fail("time_scale must be >= 0");
-  if (!(geometry.camera_distance_mm > 0)) return fail("distance_mm must be positive");
-  if (!geometry.surface_offset_mm.allFinite() || geometry.surface_offset_mm.norm() >= geometry.camera_distance_mm)
-    return fail("surface_offset_mm must be finite and nearer the axes than the camera");
-  // Zeros within half a turn; an axis tilt under 10 deg (beyond that a rig is broken, not miscalibrated).
-  if (!(std::abs(geometry.pan_zero_rad) <= kPi) || !(std::abs(geometry.tilt_zero_rad) <= kPi))
-    return fail("pan_zero_deg and tilt_zero_deg must be within +-180");
-  if (!(std::abs(geometry.pan_axis_tilt_x_rad) <= deg_to_rad(10.0)) ||
-      !(std::abs(geometry.pan_axis_tilt_y_rad) <= deg_to_rad(10.0)))
-    return fail("pan_axis_tilt_deg must be within +-10 deg");
+  if (!rig::geometry_is_valid(geometry, why)) return false;  // the hidden truth obeys the stated range
   if (!(faults.slow_write_ms >= 0)) return fail("faults.slow_write_ms must be >= 0");
   for (const auto* list :
        {&faults.move_timeout_at, &faults.drive_error_at, &faults.drop_frame_at, &faults.disconnect_camera_at})

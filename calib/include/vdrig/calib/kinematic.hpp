@@ -71,7 +71,8 @@ struct KinematicFit {
   /// The geometry (geometry_to_json's keys), "sigma" (the same keys, or null), "noise", rms and per-view residuals.
   nlohmann::json to_json() const;
   /// camera_distance_mm, surface_offset_mm [3], pan_zero_deg, tilt_zero_deg, pan_axis_tilt_x_deg,
-  /// pan_axis_tilt_y_deg.
+  /// pan_axis_tilt_y_deg. Both are rig::kinematics_to_json / kinematics_from_json (rig/geometry_config.hpp), which
+  /// capture uses to plan with a fit without depending on calib.
   static nlohmann::json geometry_to_json(const rig::RigGeometry& geometry);
   /// The geometry part of to_json(). The distance and offset are required; a missing angle is 0 (files written
   /// before the full model read as the ideal rig they were fitted as). kCorrupt on wrong types or values.

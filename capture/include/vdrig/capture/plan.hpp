@@ -1,6 +1,7 @@
 // Planning a session: scheme -> directions -> reachable pan/tilt targets -> visit order (route planner) -> manifest.
 #pragma once
 
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -21,13 +22,23 @@ struct PlanRequest {
   RouteOptions route;
 };
 
-/// Geometry a rig config states: "geometry": {"distance_mm"} for hardware, or the simulator's "sim":
-/// {"distance_mm"} (default 2500 mm, ideal axes).
-rig::RigGeometry geometry_from_rig_config(const nlohmann::json& rig_config);
+/// The geometry planning aims with (what the user believes the rig is; rig/geometry_config.hpp):
+///  - the config's "geometry" section when there is one (a hardware rig's, or a simulated rig the user has
+///    calibrated), validated: unknown keys, wrong types and out-of-range values are kInvalidArgument naming the key;
+///  - else, for a simulated rig, the ideal rig at the simulator's "distance_mm" (never its hidden pan_zero_deg,
+///    tilt_zero_deg, pan_axis_tilt_deg or surface_offset_mm: those are the truth a calibration has to find);
+///  - else (or for a null config) the ideal rig of rig::RigGeometry's defaults (2500 mm).
+Result<rig::RigGeometry> geometry_from_rig_config(const nlohmann::json& rig_config);
 
-/// Validates scheme and bracket, plans targets (unreachable directions logged and counted in extra), orders the
-/// views with plan_route and records in `extra.route` the planned and naive (scheme order) move times.
-/// Views are stored in visit order and re-indexed 0..N-1; extra.route.scheme_index maps them back.
+/// `rig_config` with its "geometry" section replaced by the kinematic fit of a calibration (the "kinematics" of a
+/// views.json, rig::read_fitted_geometry), every key written and "source" naming the file, so that the manifest
+/// records the geometry the session was planned with (a resume or a later stage need not find the file again).
+/// Errors of reading the file, naming it; the config is not changed then.
+Result<nlohmann::json> with_fitted_geometry(const nlohmann::json& rig_config, const std::filesystem::path& views_json);
+
+/// Validates scheme, bracket and the geometry (geometry_from_rig_config), plans targets (unreachable directions logged
+/// and counted in extra), orders the views with plan_route and records in `extra.route` the planned and naive (scheme
+/// order) move times. Views are stored in visit order and re-indexed 0..N-1; extra.route.scheme_index maps them back.
 Result<Manifest> plan_manifest(const PlanRequest& request);
 
 }  // namespace vdrig::capture

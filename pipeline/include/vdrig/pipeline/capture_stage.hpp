@@ -25,8 +25,11 @@ struct CaptureRequest {
 };
 
 /// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
-/// The stage geometry and the surface size come from the simulator's ground truth for a simulated rig; a hardware rig
-/// gets the defaults of rig::RigGeometry and capture::Manifest (its config's "geometry" section is not read here).
+/// The views are aimed with the config's "geometry" section when it has one (capture::geometry_from_rig_config),
+/// else, for a simulated rig, with the simulator's ground truth (unlike `vdrig capture`, which never plans with the
+/// hidden truth: this makes reference sessions whose views land exactly where planned), else the ideal rig. The
+/// surface size comes from the simulator's ground truth for a simulated rig, a hardware rig gets capture::Manifest's
+/// defaults.
 Result<capture::Session> capture_session(const CaptureRequest& request);
 
 }  // namespace vdrig::pipeline

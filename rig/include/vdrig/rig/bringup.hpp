@@ -37,8 +37,9 @@ struct ConfigCheck {
 };
 
 /// Validates every section of `config` against the backends of `registry` ("stage" and "camera" required,
-/// "light" optional), with the hardware backends' own parsers; a backend whose settings rig cannot parse without
-/// its device (the simulator's, checked by its module) is listed with its section as given.
+/// "light" optional, and "geometry" when present: rig::geometry_from_section), with the hardware backends' own parsers;
+/// a backend whose settings rig cannot parse without its device (the simulator's, checked by its module) is listed with
+/// its section as given.
 ConfigCheck check_rig_config(const nlohmann::json& config, const BackendRegistry& registry);
 
 struct SelfTestOptions {
