@@ -212,7 +212,7 @@ TEST(CliGeometry, VdrigdRefusesToStartWithABadGeometry) {
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> argv = daemon;
     argv.insert(argv.end(), extra.begin(), extra.end());
-    return testing::run_process(argv, 30.0);
+    return testing::run_process(argv, {.timeout_s = 30.0});
   };
   const auto bad_section = with({"--rig", rig_file.string()});
   EXPECT_EQ(bad_section.exit_code, 2) << bad_section.out << bad_section.err;
