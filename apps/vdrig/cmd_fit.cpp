@@ -29,6 +29,8 @@ struct FitArgs {
   int holdout = 0;
   std::string residual = "absolute";
   bool shared_lights = false;
+  int lobe_support = fitting::PhongFitOptions{}.lobe_support;
+  bool all_lobes = false;
   double smoothing = 0.0;
   std::string window = "none";
   std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
@@ -63,6 +65,9 @@ std::string fit_command(const FitArgs& a) {
   if (a.holdout > 0) cmd += " --holdout " + std::to_string(a.holdout);
   if (a.residual != "absolute") cmd += " --residual " + a.residual;
   if (a.shared_lights) cmd += " --shared-lights";
+  if (a.lobe_support != fitting::PhongFitOptions{}.lobe_support)
+    cmd += " --lobe-support " + std::to_string(a.lobe_support);
+  if (a.all_lobes) cmd += " --all-lobes";
   if (a.mpi) cmd += " --mpi";
   if (a.smoothing != 0.0) cmd += " --smoothing " + std::to_string(a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
@@ -108,6 +113,8 @@ Status run_fit(const FitArgs& a) {
                                         : a.window == "lanczos" ? fitting::RingingWindow::kLanczos
                                                                 : fitting::RingingWindow::kNone;
   options.shared_lights = a.shared_lights;
+  options.phong.lobe_support = a.lobe_support;
+  options.phong.significant_lobes_only = !a.all_lobes;
   options.sh.smoothing = options.hsh.smoothing = a.smoothing;
   options.sh.window = options.hsh.window = window;
   // They regularise the basis expansions, i.e. the models fitted by a linear operator.
@@ -224,6 +231,14 @@ const CommandRegistrar kFit([](CLI::App& root) {
   cmd->add_flag("--shared-lights", args->shared_lights,
                 "Phong: estimate the rig's lights from all texels and refit each texel's lobes toward them (sparse "
                 "view sets; the map gets a shared_lights channel)");
+  cmd->add_option("--lobe-support", args->lobe_support,
+                  "Phong: observations each lobe needs inside its support cone (>= 10 % of its peak); narrower lobes "
+                  "have their shininess capped to the sampling (0: no cap; docs/models.md, \"Between the samples\")")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
+  cmd->add_flag("--all-lobes", args->all_lobes,
+                "Phong: keep every lobe of phong:K (and at least one of phong:auto) even where it does not lower the "
+                "BIC; by default a texel gets only the lobes its observations identify");
   cmd->add_option("--smoothing", args->smoothing,
                   "SH/HSH: Laplacian penalty lambda (e.g. 1e-4 for sparse or clustered directions)")
       ->capture_default_str()

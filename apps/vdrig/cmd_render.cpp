@@ -93,6 +93,8 @@ Status run_inspect(const InspectArgs& a) {
   }
   std::printf("texel %d,%d of %s: %zu observations (%d held out, %d near the great circle) -> %s\n", s, t,
               inspection.model.c_str(), inspection.observations.size(), held, near_circle, a.out.c_str());
+  if (inspection.capped_lobes && *inspection.capped_lobes > 0)
+    std::printf("  %s\n", viewer::capped_lobes_note(*inspection.capped_lobes).c_str());
   return Status::ok();
 }
 

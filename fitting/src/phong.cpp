@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -31,6 +32,8 @@ bool PhongFitOptions::is_valid(std::string* why) const {
   if (!(max_shininess > 1.0)) return fail("max_shininess must be > 1");
   if (max_iterations < 1) return fail("max_iterations must be >= 1");
   if (!(relative_floor > 0)) return fail("relative_floor must be > 0");
+  if (lobe_support < 0 || lobe_support > 64)
+    return fail("lobe_support must be 0..64 observations, not " + std::to_string(lobe_support));
   if (!fixed_directions.empty()) {
     if (static_cast<int>(fixed_directions.size()) != lobes)
       return fail("fixed_directions must hold one direction per lobe (" + std::to_string(lobes) + "), not " +
@@ -306,8 +309,11 @@ bool minimise_with_ceres(const TexelObservations& obs, const std::vector<double>
   return summary.termination_type == ceres::CONVERGENCE;
 }
 
+/// One solve of K lobes from `init`; lobe k's shininess is at most min(max_shininess, m_cap[k]) (the smallest of the
+/// K caps when m is shared).
 template <int K, bool kShared>
-PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
+PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init,
+               const std::array<double, 4>& m_cap) {
   using Cost = PhongTexelCost<K, kShared>;
   typename Cost::Vec p, lo, hi;
   lo.setZero();  // Kd, Ks >= 0, zenith >= 0, log(m) >= 0
@@ -324,7 +330,12 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
     if (kShared && k > 0) continue;
     p[3 + 5 * K + (kShared ? 0 : k)] = std::log(std::clamp(l.shininess, 1.0, opt.max_shininess));
   }
-  for (int j = 3 + 5 * K; j < Cost::kParams; ++j) hi[j] = std::log(opt.max_shininess);
+  double shared_cap = opt.max_shininess;
+  for (int k = 0; k < K; ++k) shared_cap = std::min(shared_cap, m_cap[static_cast<size_t>(k)]);
+  for (int k = 0; k < (kShared ? 1 : K); ++k) {
+    const double cap = kShared ? shared_cap : std::min(opt.max_shininess, m_cap[static_cast<size_t>(k)]);
+    hi[3 + 5 * K + k] = std::log(std::max(1.0, cap));
+  }
   // Fixed directions: (azimuth, zenith) of lobe k are constants (opt.fixed_directions holds at least K of them).
   Eigen::Matrix<bool, Cost::kParams, 1> fixed = Eigen::Matrix<bool, Cost::kParams, 1>::Constant(false);
   std::vector<int> fixed_indices;
@@ -368,8 +379,45 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
 }
 
 template <int K>
-PhongFit solve_k(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
-  return opt.shared_shininess ? solve<K, true>(obs, opt, init) : solve<K, false>(obs, opt, init);
+PhongFit solve_k(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init,
+                 const std::array<double, 4>& m_cap) {
+  return opt.shared_shininess ? solve<K, true>(obs, opt, init, m_cap) : solve<K, false>(obs, opt, init, m_cap);
+}
+
+/// A lobe far below the diffuse level is the fit's way of saying "no highlight" (its direction and width are noise).
+bool carries_energy(const PhongParams& params, const PhongLobe& lobe) {
+  return lobe.ks.maxCoeff() > 1e-3 * std::max(params.kd.maxCoeff(), 1e-12);
+}
+
+/// Solves K lobes, then caps the shininess of every lobe that the observations do not support (fewer than
+/// opt.lobe_support of them inside its support cone: phong_support_cap at the lobe's fitted direction) and solves
+/// again from there, until every lobe is supported. A capped lobe may move, which changes its cap: the caps only ever
+/// tighten, and after kRounds rounds the fit stands as it is.
+template <int K>
+PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
+  constexpr int kRounds = 4;
+  std::array<double, 4> cap;
+  cap.fill(std::numeric_limits<double>::infinity());
+  PhongFit fit = solve_k<K>(obs, opt, init, cap);
+  if (opt.lobe_support <= 0) return fit;
+  for (int round = 0; round <= kRounds; ++round) {
+    bool unsupported = false;
+    for (int k = 0; k < K; ++k) {
+      const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
+      if (!carries_energy(fit.params, lobe)) continue;
+      double& c = cap[static_cast<size_t>(k)];
+      c = std::min(c, phong_support_cap(obs, lobe.direction, opt.lobe_support));
+      if (lobe.shininess > c * (1.0 + 1e-6)) unsupported = true;
+    }
+    if (!unsupported || round == kRounds) break;
+    fit = solve_k<K>(obs, opt, fit.params, cap);
+  }
+  for (int k = 0; k < K; ++k) {
+    const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
+    if (carries_energy(fit.params, lobe) && lobe.shininess >= cap[static_cast<size_t>(k)] * (1.0 - 1e-6))
+      ++fit.capped_lobes;
+  }
+  return fit;
 }
 
 }  // namespace
@@ -389,16 +437,16 @@ PhongFit fit_progressive(const TexelObservations& obs, const PhongFitOptions& op
       for (auto& l : init.lobes) l.shininess = init.lobes.front().shininess;
     switch (k) {
       case 1:
-        fit = solve_k<1>(obs, opt, init);
+        fit = solve_supported<1>(obs, opt, init);
         break;
       case 2:
-        fit = solve_k<2>(obs, opt, init);
+        fit = solve_supported<2>(obs, opt, init);
         break;
       case 3:
-        fit = solve_k<3>(obs, opt, init);
+        fit = solve_supported<3>(obs, opt, init);
         break;
       default:
-        fit = solve_k<4>(obs, opt, init);
+        fit = solve_supported<4>(obs, opt, init);
         break;
     }
     if (!keep_going(k, fit)) break;
@@ -414,10 +462,71 @@ PhongFit mean_only_fit(const TexelObservations& obs) {
   return fit;
 }
 
+/// The weight of observation i, channel c, in the residuals as minimised (PhongTexelCost's).
+double residual_weight(const TexelObservations& obs, const PhongFitOptions& opt, size_t i, int c) {
+  return opt.residual == ResidualMode::kRelative ? 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor) : 1.0;
+}
+
+/// The fit with no lobe: Kd by (weighted) linear least squares, its cost as the lobed fits' (converged).
+PhongFit no_lobe_fit(const TexelObservations& obs, const PhongFitOptions& opt) {
+  PhongFit fit;
+  for (int c = 0; c < 3; ++c) {
+    double wo = 0, ww = 0;
+    for (size_t i = 0; i < obs.size(); ++i) {
+      const double w2 = std::pow(residual_weight(obs, opt, i, c), 2);
+      wo += w2 * obs.radiance[i][c];
+      ww += w2;
+    }
+    fit.params.kd[c] = ww > 0 ? std::max(0.0, wo / ww) : 0.0;
+  }
+  for (size_t i = 0; i < obs.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      fit.cost += 0.5 * std::pow((fit.params.kd[c] - obs.radiance[i][c]) * residual_weight(obs, opt, i, c), 2);
+  fit.converged = true;
+  fit.quality = measure_quality(fit.params, obs);
+  return fit;
+}
+
+/// phong_bic of a k-lobe fit of `obs`, as fitted with `opt` (RSS = 2 cost, n = 3 x observations).
+class LobeCountBic {
+ public:
+  LobeCountBic(const TexelObservations& obs, const PhongFitOptions& opt)
+      : n_(static_cast<int>(3 * obs.size())), shared_(opt.shared_shininess), fixed_(!opt.fixed_directions.empty()) {
+    double sq = 0;
+    for (size_t i = 0; i < obs.size(); ++i) sq += obs.radiance[i].cast<double>().squaredNorm();
+    rms_observed_ = std::sqrt(sq / std::max(1, n_));
+  }
+  double operator()(int lobes, const PhongFit& fit) const {
+    return phong_bic(2.0 * fit.cost, n_, phong_parameter_count(lobes, shared_, fixed_), rms_observed_);
+  }
+
+ private:
+  int n_;
+  bool shared_, fixed_;
+  double rms_observed_ = 0.0;
+};
+
 }  // namespace
 
 int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_directions) {
+  if (lobes <= 0) return 3;
   return 3 + (fixed_directions ? 3 : 5) * lobes + (shared_shininess ? 1 : lobes);
+}
+
+double phong_support_cap(const TexelObservations& obs, const Vec3d& direction, int support) {
+  if (support <= 0) return std::numeric_limits<double>::infinity();
+  if (obs.size() < static_cast<size_t>(support)) return 1.0;
+  std::vector<double> cosines(obs.size());
+  for (size_t i = 0; i < obs.size(); ++i) cosines[i] = obs.direction[i].cast<double>().normalized().dot(direction);
+  std::sort(cosines.begin(), cosines.end(), std::greater<>());
+  // The largest m for which the observation with cosine c lies at `level` of the lobe's peak: c^m = level.
+  auto cap = [](double c, double level) {
+    if (!(c > 0.0)) return 1.0;
+    if (c >= 1.0 - 1e-15) return std::numeric_limits<double>::infinity();
+    return std::max(1.0, std::log(level) / std::log(c));
+  };
+  return std::min(cap(cosines[static_cast<size_t>(support - 1)], kLobeSupportLevel),
+                  cap(cosines.front(), kLobePeakLevel));
 }
 
 double phong_bic(double rss, int residuals, int parameters, double rms_observed) {
@@ -432,7 +541,21 @@ PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& opt) {
   VDRIG_CHECK(opt.is_valid(&why), why);
   const size_t params = phong_parameter_count(opt.lobes, opt.shared_shininess, !opt.fixed_directions.empty());
   if (obs.size() * 3 < params + 3) return mean_only_fit(obs);
-  return fit_progressive(obs, opt, opt.lobes, [](int, const PhongFit&) { return true; });
+  if (!opt.significant_lobes_only)
+    return fit_progressive(obs, opt, opt.lobes, [](int, const PhongFit&) { return true; });
+  // 0..K lobes, the count of the lowest BIC (each k fitted from the k - 1 lobe fit, as without the choice).
+  const LobeCountBic bic(obs, opt);
+  PhongFit best = no_lobe_fit(obs, opt);
+  double best_bic = bic(0, best);
+  fit_progressive(obs, opt, opt.lobes, [&](int k, const PhongFit& f) {
+    const double b = bic(k, f);
+    if (b < best_bic) {
+      best_bic = b;
+      best = f;
+    }
+    return true;
+  });
+  return best;
 }
 
 PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes) {
@@ -444,16 +567,14 @@ PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& opt
   VDRIG_CHECK(opt.is_valid(&why), why);
   if (obs.size() * 3 < static_cast<size_t>(phong_parameter_count(1, opt.shared_shininess)) + 3)
     return mean_only_fit(obs);
-  const int n = static_cast<int>(3 * obs.size());
-  double sq = 0;
-  for (size_t i = 0; i < obs.size(); ++i) sq += obs.radiance[i].cast<double>().squaredNorm();
-  const double rms_observed = std::sqrt(sq / n);
   // The residuals as minimised (weighted in relative mode): RSS = 2 cost.
-  auto bic = [&](int k, const PhongFit& f) {
-    return phong_bic(2.0 * f.cost, n, phong_parameter_count(k, opt.shared_shininess), rms_observed);
-  };
+  const LobeCountBic bic(obs, opt);
   PhongFit best;
   double best_bic = std::numeric_limits<double>::infinity();
+  if (opt.significant_lobes_only) {
+    best = no_lobe_fit(obs, opt);
+    best_bic = bic(0, best);
+  }
   fit_progressive(obs, opt, opt.lobes, [&](int k, const PhongFit& f) {
     // One more lobe needs at least its parameters' worth of residuals; stop as soon as the BIC stops improving.
     if (static_cast<size_t>(phong_parameter_count(k, opt.shared_shininess)) + 3 > 3 * obs.size()) return false;

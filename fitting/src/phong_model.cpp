@@ -55,6 +55,7 @@ struct StagedPhong {
   Vec3d holdout = Vec3d::Zero();
   double bic = std::numeric_limits<double>::infinity();  // of the fit as minimised (phong_bic)
   bool shared_lights = false;                            // directions from the estimated lights
+  int capped_lobes = 0;                                  // lobes whose shininess the sampling bounds (PhongFit)
 };
 
 /// BIC of a fit of `obs` (as phong_bic: RSS of the residuals as minimised = 2 cost, n = 3 x observations).
@@ -251,6 +252,7 @@ struct PhongMapFit {
       st->bic = fit_bic(fit, texel,
                         phong_parameter_count(static_cast<int>(fit.params.lobes.size()), phong.shared_shininess,
                                               !phong.fixed_directions.empty()));
+      st->capped_lobes = fit.capped_lobes;
     }
     st->quality = q;
     st->holdout = hq.rms;
@@ -269,8 +271,10 @@ struct PhongMapFit {
     for (const Vec3d& d : fixed.fixed_directions)
       if (!(d.z() >= 0.0)) return false;
     const PhongFit fit = fit_phong(texel, fixed);
-    const double bic = fit_bic(fit, texel, phong_parameter_count(fixed.lobes, fixed.shared_shininess, true));
+    const double bic = fit_bic(
+        fit, texel, phong_parameter_count(static_cast<int>(fit.params.lobes.size()), fixed.shared_shininess, true));
     if (!(bic <= st->bic)) return false;
+    st->capped_lobes = fit.capped_lobes;
     st->params = fit.params;
     st->quality = fit.quality;
     st->holdout = held.size() ? measure_quality(fit.params, held).rms : Vec3d::Zero();
@@ -302,11 +306,15 @@ struct PhongMapFit {
       map.add_channel("shared_lights");
       map.image().string_attributes["vdrig.shared_lights"] = lights_attribute;
     }
+    // Where the map guesses: lobes whose width the sampling bounds (phong.hpp, "Between the samples").
+    const bool support_bounded = phong.lobe_support > 0;
+    if (support_bounded) map.add_channel(kCappedLobesChannel);
     for (int i = 0; i < total; ++i) {
       const int s = i % spec.texels_s, t = i / spec.texels_s;
       const StagedPhong& st = staged(i);
       map.set_parameters(s, t, m->parameters_of(st.params));
       if (shared_lights) map.at("shared_lights", s, t) = st.shared_lights ? 1.0f : 0.0f;
+      if (support_bounded) map.at(kCappedLobesChannel, s, t) = static_cast<float>(st.capped_lobes);
       map.set_quality(s, t, st.quality);
       if (holding_out) map.set_holdout_rms(s, t, st.holdout);
     }
@@ -400,6 +408,7 @@ void put_staged(BytesOut& out, const StagedPhong& st) {
   for (int c = 0; c < 3; ++c) out.put<double>(st.holdout[c]);
   out.put<double>(st.bic);
   out.put<uint8_t>(st.shared_lights ? 1 : 0);
+  out.put<uint8_t>(static_cast<uint8_t>(st.capped_lobes));
 }
 
 StagedPhong get_staged(BytesIn& in) {
@@ -420,6 +429,7 @@ StagedPhong get_staged(BytesIn& in) {
   for (int c = 0; c < 3; ++c) st.holdout[c] = in.get<double>();
   st.bic = in.get<double>();
   st.shared_lights = in.get<uint8_t>() != 0;
+  st.capped_lobes = in.get<uint8_t>();
   return st;
 }
 

@@ -104,6 +104,7 @@ std::string fit_options_fingerprint(const MapFitOptions& o) {
                    static_cast<int>(p.solver), p.shared_shininess, p.max_shininess, p.max_iterations,
                    static_cast<int>(p.residual), p.relative_floor);
   for (const Vec3d& d : p.fixed_directions) s += vec3(d) + "/";
+  s += fmt::format(",support:{},significant:{}", p.lobe_support, p.significant_lobes_only);
   s += fmt::format(";sh=bands:{},method:{},window:{},smoothing:{}", o.sh.bands, static_cast<int>(o.sh.method),
                    static_cast<int>(o.sh.window), o.sh.smoothing);
   s += fmt::format(";hsh=bands:{},method:{},window:{},smoothing:{}", o.hsh.bands, static_cast<int>(o.hsh.method),

@@ -48,8 +48,13 @@ RelativeRmsStats stats(std::vector<double> values) {
   double sum = 0.0;
   for (double v : values) sum += v;
   out.mean = sum / static_cast<double>(values.size());
-  const auto k = static_cast<size_t>(std::ceil(0.95 * static_cast<double>(values.size()))) - 1;
-  out.p95 = values[std::min(k, values.size() - 1)];
+  auto percentile = [&](double q) {
+    const auto k = static_cast<size_t>(std::ceil(q * static_cast<double>(values.size()))) - 1;
+    return values[std::min(k, values.size() - 1)];
+  };
+  out.p95 = percentile(0.95);
+  out.p99 = percentile(0.99);
+  out.max = values.back();
   return out;
 }
 
@@ -199,10 +204,14 @@ nlohmann::json EvalReport::to_json() const {
     nlohmann::json row = {{"material", m.name},
                           {"texels", m.texels},
                           {"rel_rms_mean", number(m.dense.mean)},
-                          {"rel_rms_p95", number(m.dense.p95)}};
+                          {"rel_rms_p95", number(m.dense.p95)},
+                          {"rel_rms_p99", number(m.dense.p99)},
+                          {"rel_rms_max", number(m.dense.max)}};
     if (m.has_session) {
       row["session_rel_rms_mean"] = number(m.session.mean);
       row["session_rel_rms_p95"] = number(m.session.p95);
+      row["session_rel_rms_p99"] = number(m.session.p99);
+      row["session_rel_rms_max"] = number(m.session.max);
     }
     if (m.has_phong) {
       row["kd_rel_error"] = number(m.phong.kd_rel);
@@ -230,14 +239,14 @@ std::string EvalReport::table() const {
   std::string out = "model " + model + ", relative RMS in % over " + std::to_string(dense_directions) + " directions" +
                     (session ? " and the session's " + std::to_string(session_views) + " views" : "") + "\n";
   char line[256];
-  std::snprintf(line, sizeof line, "%-20s %7s %8s %8s", "material", "texels", "mean", "p95");
+  std::snprintf(line, sizeof line, "%-20s %7s %8s %8s %8s %8s", "material", "texels", "mean", "p95", "p99", "max");
   out += line;
   if (session) out += "  sess.mean sess.p95";
   if (phong) out += "    Kd err   Ks err    m err";
   out += "\n";
   for (const MaterialEval& m : materials) {
     std::snprintf(line, sizeof line, "%-20.20s %7d", m.name.c_str(), m.texels);
-    out += line + pct(m.dense.mean) + " " + pct(m.dense.p95);
+    out += line + pct(m.dense.mean) + " " + pct(m.dense.p95) + " " + pct(m.dense.p99) + " " + pct(m.dense.max);
     if (session) out += "   " + pct(m.session.mean) + " " + pct(m.session.p95);
     if (phong) {
       if (m.has_phong)

@@ -20,6 +20,7 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
 
 namespace vdrig::pipeline {
@@ -441,7 +442,19 @@ std::string maps_section(const ReportData& d) {
     if (!holdout.empty()) body += false_colour(holdout, "held-out RMS (mean of R, G, B)", d.options->map_image_px);
     if (const int lobes = image->find("lobes"); lobes >= 0)
       body += false_colour(image->channels[lobes], "lobes (phong:auto)", d.options->map_image_px);
+    // Where the map guesses: lobes whose width the sampling bounds (docs/models.md, "Between the samples").
+    int capped_texels = 0;
+    if (const int capped = image->find(fitting::kCappedLobesChannel); capped >= 0) {
+      capped_texels = cv::countNonZero(image->channels[capped] > 0.0f);
+      if (capped_texels > 0)
+        body += false_colour(image->channels[capped], "lobes held at the sampling's bound (m_capped)",
+                             d.options->map_image_px);
+    }
     body += "</div>\n";
+    if (capped_texels > 0)
+      body += "<p>" + std::to_string(capped_texels) + " of " + std::to_string(image->width * image->height) +
+              " texels have a lobe narrower than the views can resolve: its shininess is held at the sampling's "
+              "bound, so the surface may be glossier there than the map shows (docs/models.md).</p>\n";
     if (rms.empty()) body += missing("the fit residual channels rms.R/G/B");
     if (holdout.empty()) body += missing("held-out error: fitted without --holdout");
     body += "</article>\n";

@@ -59,6 +59,7 @@ TEST(PhongFit, DiffuseTexelHasNoSpecularEnergy) {
   const Vec3d p(-225, -225, 0);  // red cloth, Lambertian
   const auto truth = scene->phong_truth(p);
   const PhongFit fit = fit_phong(observe(*scene, p, 2500.0, 10.0), {});
+  EXPECT_TRUE(fit.params.lobes.empty());  // no lobe lowers the BIC of an exactly constant texel
   for (int c = 0; c < 3; ++c) {
     EXPECT_NEAR(fit.params.kd[c], truth->kd[c], 1e-3 * truth->kd.maxCoeff() + 1e-6);
     EXPECT_LT(fit.quality.rms[c], 1e-3 * truth->kd.maxCoeff());
@@ -118,14 +119,17 @@ TEST(PhongAuto, ChoosesTwoLobesForTwoLights) {
   }
 }
 
-// A single-light glossy texel and a diffuse one: one lobe is enough, the BIC does not buy more.
+// A single-light glossy texel gets one lobe (the BIC does not buy more), a diffuse one none (and one when every
+// fit must keep a lobe, as before the lobe count started at 0).
 TEST(PhongAuto, ChoosesOneLobeForOneLight) {
   auto scene = sim::make_scene("patchwork");
   ASSERT_TRUE(scene);
-  for (const Vec3d& p : {Vec3d(225, -225, 0), Vec3d(-225, -225, 0)}) {
-    const PhongFit fit = fit_phong_auto(observe(*scene, p, 2500.0, 5.0), {});
-    EXPECT_EQ(fit.params.lobes.size(), 1u) << p.transpose();
-  }
+  const Vec3d glossy(225, -225, 0), diffuse(-225, -225, 0);
+  EXPECT_EQ(fit_phong_auto(observe(*scene, glossy, 2500.0, 5.0), {}).params.lobes.size(), 1u);
+  EXPECT_EQ(fit_phong_auto(observe(*scene, diffuse, 2500.0, 5.0), {}).params.lobes.size(), 0u);
+  PhongFitOptions keep;
+  keep.significant_lobes_only = false;
+  EXPECT_EQ(fit_phong_auto(observe(*scene, diffuse, 2500.0, 5.0), keep).params.lobes.size(), 1u);
   const auto truth = scene->phong_truth(Vec3d(225, -225, 0));
   const PhongFit fit = fit_phong_auto(observe(*scene, Vec3d(225, -225, 0), 2500.0, 5.0), {});
   ASSERT_FALSE(fit.params.lobes.empty());
@@ -180,6 +184,7 @@ TEST(PhongAuto, BicFormula) {
   EXPECT_EQ(phong_parameter_count(1, true), 9);  // Kd 3, Ks 3, direction 2 (unit), m 1
   EXPECT_EQ(phong_parameter_count(2, true), 14);
   EXPECT_EQ(phong_parameter_count(2, false), 15);
+  EXPECT_EQ(phong_parameter_count(0, true), 3);  // Kd only: no shininess without a lobe
   // Below the floor (1e-6 of the observed RMS) RSS differences do not count.
   EXPECT_EQ(phong_bic(1e-20, 100, 10, 1.0), phong_bic(1e-30, 100, 10, 1.0));
 }

@@ -58,6 +58,11 @@ void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45,
 
 }  // namespace
 
+std::string capped_lobes_note(int capped_lobes) {
+  return std::to_string(capped_lobes) + (capped_lobes == 1 ? " lobe" : " lobes") +
+         " unsupported: m held at the sampling's bound, the width is a guess (the surface may be glossier)";
+}
+
 std::vector<int> held_out_views(const fitting::ParameterMap& map) {
   std::vector<int> views;
   const auto it = map.image().string_attributes.find("vdrig.held_out_views");
@@ -88,6 +93,8 @@ TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, co
   for (size_t i = 0; i < names.size(); ++i) r.parameters.emplace_back(names[i], params[i]);
   if (map.has("rms.R")) r.fit_rms = Vec3d(map.at("rms.R", s, t), map.at("rms.G", s, t), map.at("rms.B", s, t));
   if (map.has("n")) r.samples = static_cast<int>(map.at("n", s, t));
+  if (map.has(fitting::kCappedLobesChannel))
+    r.capped_lobes = static_cast<int>(map.at(fitting::kCappedLobesChannel, s, t));
   if (map.has("holdout.R"))
     r.holdout_rms = Vec3d(map.at("holdout.R", s, t), map.at("holdout.G", s, t), map.at("holdout.B", s, t));
   r.band_deg = options.band_deg;
@@ -200,6 +207,10 @@ cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
        "RMS R G B: fit " + format_rgb(r.fit_rms) + "   held out " +
            (r.holdout_rms ? format_rgb(*r.holdout_rms) : std::string("- (no views held out)")),
        cv::Point(10, y), 0.45, cv::Scalar(0, 0, 0));
+  if (r.capped_lobes && *r.capped_lobes > 0) {
+    y += 18;
+    text(img, capped_lobes_note(*r.capped_lobes), cv::Point(10, y), 0.45, cv::Scalar(0, 0, 200));
+  }
   std::string line;
   // Parameters in lines of at most chars_per_line characters; as many lines as fit, the last one saying how many
   // parameters did not.

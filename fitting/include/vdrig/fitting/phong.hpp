@@ -14,6 +14,16 @@
 // few point lights estimated over the whole map: lights.hpp), r_k is held at the given value and only Kd, Ks, m are
 // fitted: from sparse view sets a free fit can trade r against Ks and m with no loss in residual, and with r fixed
 // Ks and m become identifiable (docs/models.md).
+//
+// Between the samples (docs/models.md, "Between the samples"): a lobe is a measurement only where the observations can
+// identify it. Two rules, both on by default, keep the fit from inventing highlights in the gaps between the views:
+//  - support (PhongFitOptions::lobe_support): at least that many observations lie inside each lobe's support cone,
+//    where the lobe is >= kLobeSupportLevel of its peak. A lobe narrower than the sampling around it has its shininess
+//    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
+//    observations show of it;
+//  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC; the lobe
+//  count
+//    is chosen among 0..K, so a diffuse texel gets no lobe.
 #pragma once
 
 #include <span>
@@ -65,23 +75,44 @@ struct PhongFitOptions {
   // the coarse search and Kd, Ks by linear least squares) and only Kd, Ks, m are fitted, by either solver. Not
   // allowed with fit_phong_auto (the lobe count is what it chooses; compare fits by phong_bic instead).
   std::vector<Vec3d> fixed_directions = {};  // (the initialiser keeps designated initialisers warning-free)
+  // Observations a lobe needs inside its support cone (>= kLobeSupportLevel of its peak); its shininess is capped to
+  // make it so. 0: no cap (a lobe may be as narrow as max_shininess allows, wherever it lies).
+  int lobe_support = 2;
+  // Lobe count chosen by BIC among 0..lobes (phong:K) or 0..max_lobes (phong:auto); false: always `lobes` lobes
+  // (phong:K) or at least one (phong:auto), as before.
+  bool significant_lobes_only = true;
 
   bool is_valid(std::string* why) const;
 };
+
+/// The level that bounds a lobe's support cone: cos(theta)^m >= kLobeSupportLevel.
+inline constexpr double kLobeSupportLevel = 0.1;
+/// The level the nearest observation must reach, so that a lobe's peak is never more than 1 / kLobePeakLevel times
+/// what was seen of it (a lobe beyond the last ring of views, at the horizon, is the case this rule is for).
+inline constexpr double kLobePeakLevel = 0.5;
+
+/// The largest shininess for which a lobe at unit `direction` has at least `support` observations of `obs` inside its
+/// support cone: ln(kLobeSupportLevel) / ln(c), c the support-th largest cosine between `direction` and the
+/// observation directions. +inf when support <= 0 or that observation lies on the lobe's axis; 1 (the smallest m) when
+/// fewer than `support` observations lie in front of the lobe (c <= 0).
+double phong_support_cap(const TexelObservations& obs, const Vec3d& direction, int support);
 
 struct PhongFit {
   PhongParams params;
   FitQuality quality;
   double cost = 0.0;  // 0.5 * sum of squared (weighted) residuals
   bool converged = false;
+  // Lobes whose shininess sits at the support cap (PhongFitOptions::lobe_support): the sampling bounds their width,
+  // the surface may be glossier there than the map says.
+  int capped_lobes = 0;
 };
 
-/// Fits one texel. Needs at least (parameter count / 3 + 1) observations; otherwise returns a fit with Kd the mean
-/// and no lobe energy, converged = false.
+/// Fits one texel with `options.lobes` lobes (0..lobes with significant_lobes_only, chosen by BIC). Needs at least
+/// (parameter count / 3 + 1) observations; otherwise returns a fit with Kd the mean and no lobe, converged = false.
 PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& options);
 
 /// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
-/// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed.
+/// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed, 3 with no lobe.
 int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_directions = false);
 
 /// Bayesian information criterion of a fit with `rss` (sum of squared residuals, as minimised) over n residuals
@@ -90,8 +121,9 @@ int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_direction
 double phong_bic(double rss, int residuals, int parameters, double rms_observed);
 
 /// phong:auto: fits K = 1, 2, ... max_lobes lobes (each starting from the previous fit, as fit_phong) and keeps
-/// adding a lobe while the BIC (phong_bic, n = 3 x observations) improves. `options.lobes` is ignored; the
-/// returned params hold the chosen number of lobes (at least 1 when the texel has enough observations).
+/// adding a lobe while the BIC (phong_bic, n = 3 x observations) improves, starting from no lobe (from one lobe
+/// when significant_lobes_only is false). `options.lobes` is ignored; the returned params hold the chosen number of
+/// lobes.
 /// `options.fixed_directions` must be empty (VDRIG_CHECK): fit fixed-direction models with fit_phong.
 PhongFit fit_phong_auto(const TexelObservations& obs, const PhongFitOptions& options, int max_lobes = 4);
 

@@ -4,13 +4,18 @@
 // Channels: kd.R/G/B, per lobe k = 0..K-1 ks<k>.R/G/B, r<k>.x/y/z and m<k> (per-lobe shininess), then m (shared
 // shininess); phong:auto also "lobes" (the count chosen for the texel; its unused lobes are zero, K = the largest
 // count chosen anywhere). Header attributes: vdrig.lobes (K), vdrig.shared_m (1 shared, 0 per lobe).
-// Its map fit honours MapFitOptions::phong and ::shared_lights (fit_map.hpp).
+// Its map fit honours MapFitOptions::phong and ::shared_lights (fit_map.hpp). With PhongFitOptions::lobe_support > 0
+// (the default) the map also has the channel "m_capped": per texel, the lobes whose shininess the sampling bounds, so
+// that the surface may be glossier there than the map says (phong.hpp, "Between the samples").
 #pragma once
 
 #include "vdrig/fitting/model.hpp"
 #include "vdrig/fitting/phong.hpp"
 
 namespace vdrig::fitting {
+
+/// The channel of a Phong map that counts a texel's lobes held at the sampling's shininess cap (phong_support_cap).
+inline constexpr const char* kCappedLobesChannel = "m_capped";
 
 class PhongModel : public ReflectanceModel {
  public:

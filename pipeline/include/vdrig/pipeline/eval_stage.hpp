@@ -33,6 +33,8 @@ struct EvalOptions {
 struct RelativeRmsStats {
   double mean = 0.0;
   double p95 = 0.0;
+  double p99 = 0.0;
+  double max = 0.0;
 };
 
 /// Mean relative Phong parameter errors of a material's texels: |Kd_fit - Kd_true| / |Kd_true| (RGB norms), the

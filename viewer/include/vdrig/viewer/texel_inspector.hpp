@@ -52,13 +52,19 @@ struct TexelInspection {
   Vec3d fit_rms = Vec3d::Zero();                           // rms.R/G/B
   std::optional<Vec3d> holdout_rms;                        // holdout.R/G/B when the map has them
   int samples = 0;                                         // n
-  Vec3d peak_direction = Vec3d::UnitZ();                   // p
-  Vec3d circle_u = Vec3d::UnitX();                         // u
+  // Phong maps with the support cap (channel m_capped): lobes of this texel whose shininess the sampling bounds, i.e.
+  // where the map guesses the lobe's width (the surface may be glossier); nullopt for maps without the channel.
+  std::optional<int> capped_lobes;
+  Vec3d peak_direction = Vec3d::UnitZ();  // p
+  Vec3d circle_u = Vec3d::UnitX();        // u
   double band_deg = 10.0;
   std::vector<double> curve_deg;                   // a, ascending
   std::vector<Vec3d> curve;                        // the map's RGB radiance toward d(a)
   std::vector<InspectedObservation> observations;  // every observation, in the order given
 };
+
+/// What the inspector says of a texel with `capped_lobes` > 0 lobes held at the sampling's shininess bound.
+std::string capped_lobes_note(int capped_lobes);
 
 /// The views held out of the map's fit, from its vdrig.held_out_views attribute ("3,7,11"; written by
 /// fitting::fit_parameter_map); empty when absent.
