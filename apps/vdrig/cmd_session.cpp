@@ -77,9 +77,18 @@ class Client {
   }
 
  private:
+  /// The daemon's error reply as an Error: a refused or dropped connection (docs/protocol.md, "Connections") as
+  /// kDisconnected saying so, a failure the daemon reports by ErrorCode (capture::wire_code) as that ErrorCode, the
+  /// protocol's own refusals of a request (busy, bad_request, ...) as before.
   static Error reply_error(const json& reply) {
-    return make_error(reply.value("code", "") == "invalid_argument" ? ErrorCode::kInvalidArgument : ErrorCode::kDevice,
-                      reply.value("error", std::string("request failed")));
+    const std::string code = reply.value("code", "");
+    const std::string message = reply.value("error", std::string("request failed"));
+    const bool too_many = code == "busy" && message.rfind("too many clients", 0) == 0;
+    if (too_many || code == "permission_denied" || code == "idle_timeout")
+      return make_error(ErrorCode::kDisconnected, "vdrigd refused the connection: " + message);
+    for (int c = 0; c <= static_cast<int>(ErrorCode::kInternal); ++c)
+      if (code == capture::wire_code(static_cast<ErrorCode>(c))) return make_error(static_cast<ErrorCode>(c), message);
+    return make_error(ErrorCode::kDevice, message);
   }
 
   int fd_ = -1;

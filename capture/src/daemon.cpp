@@ -48,6 +48,10 @@ bool DaemonConfig::is_valid(std::string* why) const {
     return fail("socket path too long for a Unix socket: " + (runtime_dir / "vdrigd.sock").string());
   if (!make_rig) return fail("no rig factory");
   if (max_line_bytes < 64) return fail("max_line_bytes too small");
+  if (max_clients < 1) return fail("max_clients must be >= 1");
+  if (max_clients_per_uid < 1 || max_clients_per_uid > max_clients)
+    return fail("max_clients_per_uid must be 1..max_clients (" + std::to_string(max_clients) + ")");
+  if (!(idle_timeout_s > 0.0)) return fail("idle_timeout_s must be > 0");
   return true;
 }
 

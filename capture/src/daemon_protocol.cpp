@@ -41,8 +41,8 @@ const char* wire_code(ErrorCode code) {
 }
 
 std::vector<std::string> protocol_error_codes() {
-  return {wire::kBadRequest, wire::kUnknownCommand, wire::kInvalidState,
-          wire::kBusy,       wire::kTooLong,        wire::kPermissionDenied};
+  return {wire::kBadRequest, wire::kUnknownCommand,   wire::kInvalidState, wire::kBusy,
+          wire::kTooLong,    wire::kPermissionDenied, wire::kIdleTimeout};
 }
 
 json error_reply(const RequestError& error, const json& id) {

@@ -25,6 +25,7 @@ inline constexpr const char* kInvalidState = "invalid_state";          // pause/
 inline constexpr const char* kBusy = "busy";                           // a session runs, or too many clients
 inline constexpr const char* kTooLong = "too_long";                    // a line above max_line_bytes (then closed)
 inline constexpr const char* kPermissionDenied = "permission_denied";  // peer credentials refused (then closed)
+inline constexpr const char* kIdleTimeout = "idle_timeout";            // no request for idle_timeout_s (then closed)
 }  // namespace wire
 
 /// A failed request as sent back: {"ok": false, "code": code, "error": message}.

@@ -7,6 +7,9 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <vector>
@@ -97,7 +100,10 @@ Status SocketServer::open() {
   if (rc != 0) return make_error(ErrorCode::kIo, "bind " + path + ": " + std::strerror(errno));
   bound_ = true;
   ::chmod(path.c_str(), 0660);
-  if (::listen(listen_fd_, 16) != 0) return make_error(ErrorCode::kIo, std::string("listen: ") + std::strerror(errno));
+  // A deep backlog: a burst of clients (200 asking `status` at once) waits in the kernel's queue for accept() and
+  // gets its answer or a "too many clients" reply, instead of timing out on connect.
+  if (::listen(listen_fd_, SOMAXCONN) != 0)
+    return make_error(ErrorCode::kIo, std::string("listen: ") + std::strerror(errno));
   logger_->info("listening on {} (uid {} allowed)", path, config_.allowed_uid);
   return Status::ok();
 }
@@ -135,9 +141,18 @@ void SocketServer::accept_clients() {
     const bool known = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
     const bool allowed =
         known && (cred.uid == config_.allowed_uid || (config_.allowed_gid && cred.gid == *config_.allowed_gid));
-    if (!allowed || static_cast<int>(clients_.size()) >= config_.max_clients) {
-      const json refusal = allowed ? error_reply({wire::kBusy, "too many clients"})
-                                   : error_reply({wire::kPermissionDenied, "peer not allowed"});
+    int of_uid = 0;
+    for (const auto& [other_fd, other] : clients_) of_uid += known && other.uid == cred.uid ? 1 : 0;
+    const bool room = static_cast<int>(clients_.size()) < config_.max_clients;
+    const bool uid_room = of_uid < config_.max_clients_per_uid;
+    if (!allowed || !room || !uid_room) {
+      const json refusal = !allowed ? error_reply({wire::kPermissionDenied, "peer not allowed"})
+                           : !room
+                               ? error_reply({wire::kBusy, "too many clients (" + std::to_string(config_.max_clients) +
+                                                               " connected); try again later"})
+                               : error_reply({wire::kBusy, "too many clients of uid " + std::to_string(cred.uid) +
+                                                               " (" + std::to_string(config_.max_clients_per_uid) +
+                                                               " connected); close some or try again later"});
       const std::string reply = dump_line(refusal);
       [[maybe_unused]] const ssize_t n = ::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL);
       logger_->warn("refused connection from uid {} gid {}", known ? static_cast<long>(cred.uid) : -1L,
@@ -145,7 +160,10 @@ void SocketServer::accept_clients() {
       ::close(fd);
       continue;
     }
-    clients_[fd].fd = fd;
+    Connection& c = clients_[fd];
+    c.fd = fd;
+    c.uid = cred.uid;
+    c.last_request = std::chrono::steady_clock::now();
   }
 }
 
@@ -163,6 +181,7 @@ bool SocketServer::read_client(Connection& c) {
   if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
   if (c.closing) return true;  // discard input after a fatal request
   c.in.append(buf, static_cast<size_t>(n));
+  c.last_request = std::chrono::steady_clock::now();
   return true;  // an unfinished line that is already too long is refused by answer_client()
 }
 
@@ -220,7 +239,7 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
       if (!c.out.empty()) ev |= POLLOUT;
       fds.push_back({fd, ev, 0});
     }
-    const int n = ::poll(fds.data(), fds.size(), work_pending ? 0 : 1000);
+    const int n = ::poll(fds.data(), fds.size(), work_pending ? 0 : close_idle(1000));
     if (n < 0) {
       if (errno == EINTR) continue;
       return make_error(ErrorCode::kIo, std::string("poll: ") + std::strerror(errno));
@@ -259,6 +278,28 @@ Status SocketServer::serve(const std::atomic<bool>& stop, const LineHandler& on_
     }
   }
   return Status::ok();
+}
+
+int SocketServer::close_idle(int cap_ms) {
+  using namespace std::chrono;
+  const auto now = steady_clock::now();
+  const auto timeout = duration_cast<steady_clock::duration>(duration<double>(config_.idle_timeout_s));
+  auto next = milliseconds(cap_ms);
+  for (auto& [fd, c] : clients_) {
+    // Exempt: watchers, and connections with a request in hand or output still to send.
+    if (c.subscribed || c.closing || c.awaiting_reply || !c.in.empty() || !c.out.empty()) continue;
+    const auto idle = now - c.last_request;
+    if (idle >= timeout) {
+      logger_->info("client {} (uid {}) idle for {:.0f} s: closed", fd, static_cast<long>(c.uid),
+                    duration<double>(idle).count());
+      send(c, error_reply({wire::kIdleTimeout,
+                           "no request for " + fmt::format("{:g}", config_.idle_timeout_s) + " s; closing"}));
+      c.closing = true;
+    } else {
+      next = std::min(next, duration_cast<milliseconds>(timeout - idle) + milliseconds(1));
+    }
+  }
+  return static_cast<int>(next.count());
 }
 
 void SocketServer::close() {

@@ -6,7 +6,10 @@
 // pipelining thousands of requests delays another by a few requests at most.
 #pragma once
 
+#include <sys/types.h>
+
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -29,6 +32,8 @@ struct Connection {
   bool closing = false;         // input is ignored; close once `out` is flushed
   bool eof = false;             // the peer shut down its writing side: answer what is in `in`, then close
   bool awaiting_reply = false;  // a request's reply comes later (send_deferred); later lines wait for it
+  uid_t uid = 0;                // the peer's (SO_PEERCRED), for the per-uid limit
+  std::chrono::steady_clock::time_point last_request{};  // accepted, or the last byte of a request received
 };
 
 /// Answers one request line (its '\n' and any '\r' left on): the reply object, or nullopt when the reply comes
@@ -75,6 +80,9 @@ class SocketServer {
   /// Whether `c` has a complete request line not yet answered.
   static bool has_pending_line(const Connection& c);
   void too_long(Connection& c);
+  /// Tells connections idle for config_.idle_timeout_s so and closes them; returns the milliseconds until the next
+  /// one may time out (at most `cap_ms`).
+  int close_idle(int cap_ms);
   void send(Connection& c, const nlohmann::json& j);
   /// Writes queued output; false on a write error.
   static bool flush_client(Connection& c);

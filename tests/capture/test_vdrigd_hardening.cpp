@@ -1,7 +1,8 @@
 // vdrigd as a careful neighbour: it creates only what it owns (an existing shared runtime folder keeps its mode; a
 // regular file at the socket path is refused and kept; a stale socket is replaced), refuses an invalid rig config
 // at start (exit 2, with the reason), serves clients round-robin (one pipelining client does not hold up another),
-// lists a damaged session folder as damaged instead of failing `list-sessions`, and a refused client is told why.
+// lists a damaged session folder as damaged instead of failing `list-sessions`, and a refused client is told why;
+// idle connections are closed and one uid cannot take every place, so idle sockets cannot lock everyone out.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -233,6 +234,80 @@ TEST(VdrigdRefusal, ARefusedClientIsToldWhy) {
     EXPECT_NE(r.err.find("peer not allowed"), std::string::npos) << "stderr: " << r.err;
     EXPECT_EQ(r.err.find("send to daemon failed"), std::string::npos) << "stderr: " << r.err;
   }
+}
+
+/// The first line the daemon sends on `fd` as JSON (discarded when there is none within `timeout_ms`).
+json first_reply(int fd, int timeout_ms = 5000) {
+  std::string buf;
+  const auto line = testing::read_line(fd, buf, timeout_ms);
+  return line ? json::parse(*line, nullptr, false) : json(json::value_t::discarded);
+}
+
+// Before: 64 idle sockets locked everyone out (no idle timeout, no per-uid limit) and the CLI called the refusal a
+// "device fault". Now a uid's connections beyond its limit are refused as "too many clients", an idle connection is
+// told so and closed (freeing its place), a subscribed watcher is not, and the CLI says what happened.
+TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
+  vdrig::test::TempDir root("idle");
+  DaemonConfig config = config_in(root.path());
+  config.max_clients = 8;
+  config.max_clients_per_uid = 3;
+  config.idle_timeout_s = 1.0;
+  Running d(config);
+  ASSERT_TRUE(d.started()) << d.started().describe();
+  const fs::path socket = d.daemon().socket_path();
+  const std::string runtime_dir = (root.path() / "run").string();
+
+  const Clock::time_point opened = Clock::now();
+  std::vector<int> idle;
+  for (int i = 0; i < 2; ++i) idle.push_back(testing::connect_unix(socket));
+  const int watcher = testing::connect_unix(socket);
+  ASSERT_TRUE(testing::send_all(watcher, R"({"cmd":"subscribe"})"
+                                         "\n"));
+  EXPECT_TRUE(first_reply(watcher).value("ok", false));
+  for (int fd : idle) ASSERT_GE(fd, 0);
+
+  // The uid's fourth connection: refused, and the CLI reports it as a refusal.
+  const int fourth = testing::connect_unix(socket);
+  const json refusal = first_reply(fourth);
+  EXPECT_EQ(refusal.value("code", ""), "busy") << refusal.dump();
+  EXPECT_NE(refusal.value("error", "").find("too many clients of uid"), std::string::npos) << refusal.dump();
+  ::close(fourth);
+  const auto cli = testing::run_process({testing::vdrig_cli(), "session", "status", "--runtime-dir", runtime_dir}, {20.0});
+  EXPECT_EQ(cli.exit_code, 1);
+  EXPECT_NE(cli.err.find("refused the connection: too many clients"), std::string::npos) << cli.err;
+  EXPECT_EQ(cli.err.find("device fault"), std::string::npos) << cli.err;
+
+  // After the idle timeout the idle ones are told and closed; the watcher stays; the CLI is served again.
+  for (int fd : idle) {
+    const json bye = first_reply(fd, 5000);
+    EXPECT_EQ(bye.value("code", ""), "idle_timeout") << bye.dump();
+    ::close(fd);
+  }
+  const double closed_after_s = std::chrono::duration<double>(Clock::now() - opened).count();
+  EXPECT_GE(closed_after_s, 0.9);
+  EXPECT_LT(closed_after_s, 3.0);
+  const auto served =
+      testing::run_process({testing::vdrig_cli(), "session", "status", "--runtime-dir", runtime_dir}, {20.0});
+  EXPECT_EQ(served.exit_code, 0) << served.err;
+  ASSERT_TRUE(testing::send_all(watcher, R"({"cmd":"status"})"
+                                         "\n"));
+  const json status = first_reply(watcher);
+  EXPECT_TRUE(status.value("ok", false) || status.contains("event")) << status.dump();
+  ::close(watcher);
+}
+
+TEST(VdrigdConnections, LimitsAreValidated) {
+  DaemonConfig config = config_in("/tmp/unused");
+  std::string why;
+  config.max_clients_per_uid = 0;
+  EXPECT_FALSE(config.is_valid(&why));
+  config.max_clients_per_uid = config.max_clients + 1;
+  EXPECT_FALSE(config.is_valid(&why));
+  EXPECT_NE(why.find("max_clients_per_uid"), std::string::npos) << why;
+  config.max_clients_per_uid = 4;
+  config.idle_timeout_s = 0.0;
+  EXPECT_FALSE(config.is_valid(&why));
+  EXPECT_NE(why.find("idle_timeout_s"), std::string::npos) << why;
 }
 
 }  // namespace

@@ -34,7 +34,11 @@ struct DaemonConfig {
   CaptureOptions capture;                  // gain, disk reserve, retry policy (bracket comes from `start`)
   std::size_t max_line_bytes = 64 * 1024;  // longer requests: error reply, connection closed
   std::size_t max_output_bytes = 8 << 20;  // a client this far behind (not reading its events) is dropped
-  int max_clients = 64;
+  int max_clients = 64;                    // connections in all; more are refused with "busy" ("too many clients")
+  int max_clients_per_uid = 16;  // connections of one peer uid, so that one user's idle sockets cannot lock out others
+  // A connection with no request for this long is told so ("idle_timeout") and closed; one that subscribed to events
+  // is exempt (it is a watcher, and the per-uid limit bounds those).
+  double idle_timeout_s = 60.0;
 
   bool is_valid(std::string* why) const;
 };
