@@ -1,4 +1,5 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -7,6 +8,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+
+#include <fmt/format.h>
 
 #include "commands.hpp"
 #include "mpi_job.hpp"
@@ -31,7 +35,7 @@ struct FitArgs {
   bool shared_lights = false;
   int lobe_support = fitting::PhongFitOptions{}.lobe_support;
   bool all_lobes = false;
-  double smoothing = 0.0;
+  std::optional<double> smoothing;  // unset: default_smoothing(model)
   std::string window = "none";
   std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
   int threads = 0;
@@ -57,6 +61,42 @@ Status check_output_writable(const fs::path& out) {
   return Status::ok();
 }
 
+/// What the map of `model` at S x T texels takes as float channels, at most: the model's parameters, the quality
+/// channels (rms, mpe, n), holdout and the Phong extras (m_capped, shared_lights). A model whose layout the fit
+/// decides (phong:auto: up to 4 lobes) counts as 32 parameters.
+size_t map_bytes_at_most(const fitting::ReflectanceModel& model, int S, int T) {
+  const size_t parameters = model.storable() ? model.channels().size() : std::max<size_t>(model.channels().size(), 32);
+  return (parameters + 7 + 3 + 2) * static_cast<size_t>(S) * static_cast<size_t>(T) * sizeof(float);
+}
+
+/// Refuses, before a fit that can take hours, a map that vdrig could not read back (ParameterMap::kMaxReadBytes:
+/// `render` and `view` refuse it) or that the disk cannot hold (its uncompressed size: an upper bound).
+Status check_map_fits(const fitting::ReflectanceModel& model, int S, int T, const fs::path& out) {
+  const size_t bytes = map_bytes_at_most(model, S, T);
+  auto mib = [](size_t b) { return std::to_string(b >> 20) + " MiB"; };
+  if (bytes > fitting::ParameterMap::kMaxReadBytes)
+    return make_error(ErrorCode::kInvalidArgument, "--res " + std::to_string(S) + "x" + std::to_string(T) + ": a " +
+                                                       model.name() + " map would take " + mib(bytes) + ", above the " +
+                                                       mib(fitting::ParameterMap::kMaxReadBytes) +
+                                                       " that vdrig render/view can read back; choose a smaller --res");
+  struct statvfs fs_stat {};
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  if (::statvfs(dir.c_str(), &fs_stat) == 0) {
+    const size_t free_bytes = static_cast<size_t>(fs_stat.f_bavail) * fs_stat.f_frsize;
+    if (free_bytes < bytes)
+      return make_error(ErrorCode::kNoSpace, "--out " + out.string() + ": the map may take up to " + mib(bytes) +
+                                                 " and " + dir.string() + " has " + mib(free_bytes) + " free");
+  }
+  return Status::ok();
+}
+
+/// The Laplacian penalty of a basis fit when --smoothing is not given: least-squares SH and HSH ring between the
+/// views without it (sh-ls:6 on the demo session: 21.8 % dense against 10.0 % at the views on glossy plastic; with
+/// 1e-4, 11.2 and 11.2; docs/models.md, "Between the samples"); the projection methods take none.
+double default_smoothing(const fitting::ReflectanceModel& model) {
+  return model.family() == "sh-ls" || model.family() == "hsh" ? 1e-4 : 0.0;
+}
+
 /// The command line that asks for this fit (recorded in the map, shown by `vdrig report`).
 std::string fit_command(const FitArgs& a) {
   std::string cmd = "vdrig fit " + a.session + " --model " + a.model;
@@ -69,7 +109,7 @@ std::string fit_command(const FitArgs& a) {
     cmd += " --lobe-support " + std::to_string(a.lobe_support);
   if (a.all_lobes) cmd += " --all-lobes";
   if (a.mpi) cmd += " --mpi";
-  if (a.smoothing != 0.0) cmd += " --smoothing " + std::to_string(a.smoothing);
+  if (a.smoothing) cmd += " --smoothing " + fmt::format("{:g}", *a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
   return cmd;
 }
@@ -99,6 +139,7 @@ Status run_fit(const FitArgs& a) {
   }
   const bool lead = !comm || comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
   if (lead) VDRIG_TRY(check_output_writable(out));
+  if (lead && a.obsmap.empty()) VDRIG_TRY(check_map_fits(*model.value(), res->first, res->second, out));
 
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
@@ -115,10 +156,12 @@ Status run_fit(const FitArgs& a) {
   options.shared_lights = a.shared_lights;
   options.phong.lobe_support = a.lobe_support;
   options.phong.significant_lobes_only = !a.all_lobes;
-  options.sh.smoothing = options.hsh.smoothing = a.smoothing;
+  const double smoothing = a.smoothing.value_or(default_smoothing(*options.model));
+  options.sh.smoothing = options.hsh.smoothing = smoothing;
   options.sh.window = options.hsh.window = window;
   // They regularise the basis expansions, i.e. the models fitted by a linear operator.
-  if ((a.smoothing != 0.0 || window != fitting::RingingWindow::kNone) && !options.model->linear_in_shared_directions())
+  if ((a.smoothing.value_or(0.0) != 0.0 || window != fitting::RingingWindow::kNone) &&
+      !options.model->linear_in_shared_directions())
     return make_error(ErrorCode::kInvalidArgument,
                       "--smoothing and --window do not apply to " + options.model->family() + " models");
   options.held_out = pipeline::spread_holdout_views(n_views, a.holdout);
@@ -240,8 +283,8 @@ const CommandRegistrar kFit([](CLI::App& root) {
                 "Phong: keep every lobe of phong:K (and at least one of phong:auto) even where it does not lower the "
                 "BIC; by default a texel gets only the lobes its observations identify");
   cmd->add_option("--smoothing", args->smoothing,
-                  "SH/HSH: Laplacian penalty lambda (e.g. 1e-4 for sparse or clustered directions)")
-      ->capture_default_str()
+                  "SH/HSH: Laplacian penalty lambda (default 1e-4 for sh-ls and hsh, which ring between the views "
+                  "without it, 0 for the others; docs/models.md)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--window", args->window, "SH-ZH/HSH: ringing window after the fit: none | hanning | lanczos")
       ->capture_default_str()

@@ -211,6 +211,15 @@ TEST_F(CliHardening, FitChecksTheOutputFolderBeforeFitting) {
   EXPECT_EQ(r.out.find("observation map"), std::string::npos) << "refused only after the work:\n" << r.out;
 }
 
+// Before: `fit --res 8192x8192` fitted for hours and wrote a map that `render` then refused ("needs 4352 MiB").
+TEST_F(CliHardening, FitRefusesAMapThatCouldNotBeReadBackBeforeFitting) {
+  const ProcessRun r = vdrig("fit '" + session().string() + "' --model phong:1 --res 8192x8192");
+  expect_refused(r, "can read back", 2);
+  EXPECT_EQ(r.out.find("observation map"), std::string::npos) << "refused only after the work:\n" << r.out;
+  // A map that reads back is fitted as before.
+  EXPECT_EQ(vdrig("fit '" + session().string() + "' --model phong:1 --res 8x8").exit_code, 0);
+}
+
 TEST_F(CliHardening, ObservationMapFilesGetTheModeOfOtherOutputs) {
   const fs::path file = dir_ / "mode.vdobs";
   const ProcessRun r = vdrig("obsmap build '" + session().string() + "' --res 8x8 --out '" + file.string() + "'");
