@@ -392,14 +392,17 @@ bool carries_energy(const PhongParams& params, const PhongLobe& lobe) {
 /// Solves K lobes, then caps the shininess of every lobe that the observations do not support (fewer than
 /// opt.lobe_support of them inside its support cone: phong_support_cap at the lobe's fitted direction) and solves
 /// again from there, until every lobe is supported. A capped lobe may move, which changes its cap: the caps only ever
-/// tighten, and after kRounds rounds the fit stands as it is.
+/// tighten, and after kRounds rounds the lobes are held where they are for a last solve under their caps, so every
+/// returned lobe is supported.
 template <int K>
 PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& opt, const PhongParams& init) {
   constexpr int kRounds = 4;
   std::array<double, 4> cap;
   cap.fill(std::numeric_limits<double>::infinity());
   PhongFit fit = solve_k<K>(obs, opt, init, cap);
-  if (opt.lobe_support <= 0) return fit;
+  // A lobe held at a known direction (the lights' mirror directions, estimated over the whole map) is not placed by
+  // this texel's observations: its width is measured on its flanks, and capping it would only bias it.
+  if (opt.lobe_support <= 0 || !opt.fixed_directions.empty()) return fit;
   for (int round = 0; round <= kRounds; ++round) {
     bool unsupported = false;
     for (int k = 0; k < K; ++k) {
@@ -409,7 +412,15 @@ PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& op
       c = std::min(c, phong_support_cap(obs, lobe.direction, opt.lobe_support));
       if (lobe.shininess > c * (1.0 + 1e-6)) unsupported = true;
     }
-    if (!unsupported || round == kRounds) break;
+    if (!unsupported) break;
+    if (round == kRounds) {
+      // Still drifting: hold the lobes where they are and solve Kd, Ks and m under the caps there.
+      PhongFitOptions held = opt;
+      held.fixed_directions.clear();
+      for (const PhongLobe& lobe : fit.params.lobes) held.fixed_directions.push_back(lobe.direction.normalized());
+      fit = solve_k<K>(obs, held, fit.params, cap);
+      break;
+    }
     fit = solve_k<K>(obs, opt, fit.params, cap);
   }
   for (int k = 0; k < K; ++k) {

@@ -20,7 +20,8 @@
 //  - support (PhongFitOptions::lobe_support): at least that many observations lie inside each lobe's support cone,
 //    where the lobe is >= kLobeSupportLevel of its peak. A lobe narrower than the sampling around it has its shininess
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
-//    observations show of it;
+//    observations show of it. Lobes held at fixed_directions are exempt: their direction comes from elsewhere (the
+//    lights estimated over the whole map), and with it Ks and m are measured on the lobe's flanks;
 //  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC; the lobe
 //  count
 //    is chosen among 0..K, so a diffuse texel gets no lobe.
