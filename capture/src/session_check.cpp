@@ -94,10 +94,12 @@ class Checker {
   }
 
   void check_journal() {
-    for (const auto& warning : session_.journal_warnings()) {
-      // The torn line is the one problem of the journal's text that --repair deals with (open_for_capture did).
-      const bool torn = warning.find("torn last line") != std::string::npos;
-      add(session_.layout().journal_file(), warning, -1, torn && options_.repair);
+    const auto& warnings = session_.journal_warnings();
+    for (size_t i = 0; i < warnings.size(); ++i) {
+      // A torn last line (the last warning when there is one) is the one journal problem --repair deals with:
+      // open_for_capture cut it off under the lock.
+      const bool torn = session_.journal_torn() && i + 1 == warnings.size();
+      add(session_.layout().journal_file(), warnings[i], -1, torn && options_.repair);
     }
   }
 

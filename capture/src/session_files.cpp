@@ -33,6 +33,17 @@ Error symlink_refused(const fs::path& shown) {
 
 namespace {
 
+/// What a non-regular file is, for messages (as core's read_regular_file says it).
+std::string not_regular(const fs::path& shown, mode_t mode) {
+  const char* kind = S_ISDIR(mode)    ? "a directory"
+                     : S_ISFIFO(mode) ? "a FIFO"
+                     : S_ISSOCK(mode) ? "a socket"
+                     : S_ISCHR(mode)  ? "a character device"
+                     : S_ISBLK(mode)  ? "a block device"
+                                      : "not a regular file";
+  return shown.string() + " is " + kind + ", not a regular file: refused";
+}
+
 /// Whether `name` in `dir_fd` is a symbolic link (after an open with O_NOFOLLOW failed with ELOOP or ENOTDIR).
 bool is_link_at(int dir_fd, const std::string& name) {
   struct stat st {};
@@ -87,8 +98,7 @@ Status check_regular_or_absent_at(int dir_fd, const std::string& name, const fs:
     return error_from_errno(errno, "stat " + shown.string());
   }
   if (S_ISLNK(st.st_mode)) return symlink_refused(shown);
-  if (!S_ISREG(st.st_mode))
-    return make_error(ErrorCode::kInvalidArgument, shown.string() + " is not a regular file: refused");
+  if (!S_ISREG(st.st_mode)) return make_error(ErrorCode::kInvalidArgument, not_regular(shown, st.st_mode));
   return Status::ok();
 }
 
@@ -108,8 +118,7 @@ Result<std::string> read_session_file(const fs::path& session_dir, const fs::pat
   const UniqueFd file(fd);
   struct stat st {};
   if (::fstat(fd, &st) != 0) return error_from_errno(errno, "stat " + shown.string());
-  if (!S_ISREG(st.st_mode))
-    return make_error(ErrorCode::kInvalidArgument, shown.string() + " is not a regular file: refused");
+  if (!S_ISREG(st.st_mode)) return make_error(ErrorCode::kInvalidArgument, not_regular(shown, st.st_mode));
   if (static_cast<std::size_t>(st.st_size) > max_bytes)
     return make_error(ErrorCode::kInvalidArgument,
                       shown.string() + " is larger than " + std::to_string(max_bytes >> 20) + " MiB: not read");
