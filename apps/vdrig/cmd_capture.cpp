@@ -24,7 +24,8 @@ struct CaptureArgs {
   std::string bracket = "auto";
   std::string out;
   std::string resume;
-  std::string geometry;  // a calibration's views.json: its kinematic fit becomes the rig config's "geometry"
+  std::vector<int> redo_views;  // with --resume: complete views to shoot again
+  std::string geometry;         // a calibration's views.json: its kinematic fit becomes the rig config's "geometry"
   std::string runtime_dir = capture::default_runtime_dir().string();  // where rig locks live (as vdrigd's)
   double reserve_mb = 256;
   capture::RetryPolicy retry;  // device faults: attempts in all and the backoff between them
@@ -52,11 +53,14 @@ Status run(const CaptureArgs& a) {
   if (!a.resume.empty() && !a.geometry.empty())
     return make_error(ErrorCode::kInvalidArgument,
                       "--geometry plans a new session; a resumed one keeps the geometry its manifest records");
+  if (!a.redo_views.empty() && a.resume.empty())
+    return make_error(ErrorCode::kInvalidArgument, "--redo VIEWS re-shoots views of a session: give --resume DIR");
   if (!a.resume.empty()) {
     // Locked before the journal is read: another process capturing into it is refused with its PID.
     auto s = capture::Session::open_for_capture(a.resume);
     if (!s) return s.error();
     session = std::move(s.value());
+    if (!a.redo_views.empty()) VDRIG_TRY(session->mark_views_incomplete(a.redo_views, "vdrig capture --redo"));
     std::printf("resuming %s: %d/%zu views complete\n", a.resume.c_str(), session->completed_view_count(),
                 session->manifest().views.size());
   } else {
@@ -127,6 +131,9 @@ CommandRegistrar reg([](CLI::App& root) {
   cmd->add_option("--bracket", a->bracket, "fixed:E1,E2,... or auto[:CEIL[:FLOOR]][@X,Y,W,H]")->capture_default_str();
   cmd->add_option("--out", a->out, "new session folder");
   cmd->add_option("--resume", a->resume, "session folder to resume (rig config from its manifest)");
+  cmd->add_option("--redo", a->redo_views,
+                  "with --resume: views to shoot again although complete, e.g. 4,17 (journaled as view_redo)")
+      ->delimiter(',');
   cmd->add_option("--geometry", a->geometry,
                   "aim with a calibrated rig: a views.json whose kinematic fit (vdrig calib extrinsics) replaces the "
                   "rig config's \"geometry\" (recorded in the manifest)");

@@ -16,6 +16,7 @@
 #include "mpi_job.hpp"
 #include "progress.hpp"
 #include "vdrig/cluster/distributed_fit.hpp"
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
@@ -138,6 +139,8 @@ Status run_fit(const FitArgs& a) {
     comm = world.value();
   }
   const bool lead = !comm || comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
+  // The default output is a file of the session (maps/): never reached through a link planted in the session.
+  if (a.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
   if (lead) VDRIG_TRY(check_output_writable(out));
   if (lead && a.obsmap.empty()) VDRIG_TRY(check_map_fits(*model.value(), res->first, res->second, out));
 

@@ -1,4 +1,5 @@
-// vdrig session start|status|pause|resume|abort|list: a client of vdrigd (docs/protocol.md).
+// vdrig session start|status|pause|resume|abort|list: a client of vdrigd (docs/protocol.md); vdrig session check:
+// fsck for a session folder (capture/session_check.hpp), run locally.
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -12,6 +13,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/session_check.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -161,6 +163,33 @@ Status run(const std::string& verb, const SessionArgs& a) {
   return Status::ok();
 }
 
+struct CheckArgs {
+  std::string session;
+  bool repair = false;
+};
+
+/// One line per problem on stdout; a failure (exit status 1) while any problem is left unrepaired.
+Status check(const CheckArgs& a) {
+  capture::SessionCheckOptions options;
+  options.repair = a.repair;
+  auto report = capture::check_session(a.session, options);
+  if (!report) return report.status();
+  for (const auto& problem : report->problems) std::printf("%s\n", problem.describe().c_str());
+  if (!report->views_marked_incomplete.empty()) {
+    std::string views;
+    for (const int v : report->views_marked_incomplete) views += (views.empty() ? "" : ",") + std::to_string(v);
+    std::printf("views %s marked incomplete: vdrig capture --resume %s re-shoots them\n", views.c_str(),
+                a.session.c_str());
+  }
+  const int left = report->unrepaired_count();
+  if (left > 0)
+    return make_error(ErrorCode::kCorrupt, "session " + a.session + ": " + std::to_string(left) + " problem" +
+                                               (left == 1 ? "" : "s") +
+                                               (a.repair ? " left" : " (vdrig session check --repair fixes some)"));
+  if (report->problems.empty()) std::printf("session %s: ok\n", a.session.c_str());
+  return Status::ok();
+}
+
 CommandRegistrar reg([](CLI::App& root) {
   auto* session = root.add_subcommand("session", "control capture sessions run by vdrigd");
   session->require_subcommand(1);
@@ -180,6 +209,15 @@ CommandRegistrar reg([](CLI::App& root) {
     const std::string v = verb;
     cmd->callback([a, v] { finish(run(v, *a)); });
   }
+  auto c = std::make_shared<CheckArgs>();
+  auto* cmd = session->add_subcommand(
+      "check",
+      "check a session folder (frames decode, journal and manifest agree, nothing foreign); exit 1 on a problem");
+  cmd->add_option("session", c->session, "session folder")->required();
+  cmd->add_flag("--repair", c->repair,
+                "under the session lock: mark views with bad frames incomplete (capture --resume re-shoots them), cut "
+                "a torn journal line, remove links and stale temporaries");
+  cmd->callback([c] { finish(check(*c)); });
 });
 
 }  // namespace

@@ -87,6 +87,8 @@ Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& option
     auto held = lock_session(session.dir());
     if (!held) return held.error();
     run_lock = std::move(held.value());
+    // A torn last journal line (a crash mid-append) is cut off by the writer, under the lock: readers leave it.
+    VDRIG_TRY(session.repair_torn_journal(&*run_lock));
   }
   auto logger = log::get("capture");
   BracketSpec bracket = options.effective_bracket();

@@ -8,12 +8,11 @@
 #include <chrono>
 #include <cstring>
 #include <ctime>
-#include <fstream>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
-#include <sstream>
 #include <type_traits>
 
+#include "session_files.hpp"
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
@@ -199,35 +198,46 @@ Result<Session> Session::create(const fs::path& dir, Manifest manifest) {
 Result<Session> Session::open(const fs::path& dir) {
   const SessionLayout layout(dir);
   const fs::path manifest_path = layout.manifest_file();
-  if (!fs::exists(manifest_path)) return make_error(ErrorCode::kNotFound, "no session at " + dir.string());
   Session s;
   s.dir_ = dir;
   {
-    auto j = read_json_file(manifest_path);
-    if (!j) return j.error();
-    auto m = Manifest::from_json(j.value());
+    // Read without following links (session_files.hpp): a manifest linked to another session's is refused.
+    auto text = detail::read_session_file(dir, manifest_path.filename(), kMaxJsonFileBytes);
+    if (!text) {
+      if (text.error().code == ErrorCode::kNotFound)
+        return make_error(ErrorCode::kNotFound, "no session at " + dir.string());
+      return text.error();
+    }
+    json j = json::parse(text.value(), nullptr, false);
+    if (j.is_discarded() || !j.is_object())
+      return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": not a JSON object");
+    auto m = Manifest::from_json(j);
     if (!m) return make_error(ErrorCode::kCorrupt, manifest_path.string() + ": " + m.error().message);
     s.manifest_ = std::move(m.value());
   }
-  std::ifstream journal(layout.journal_file(), std::ios::binary);
-  if (!journal)
-    return make_error(ErrorCode::kCorrupt,
-                      "session " + dir.string() + " has no " + layout.journal_file().filename().string());
-  std::stringstream buf;
-  buf << journal.rdbuf();
-  const std::string text = buf.str();
+  constexpr std::size_t kMaxJournalBytes = std::size_t{1} << 30;
+  auto journal = detail::read_session_file(dir, layout.journal_file().filename(), kMaxJournalBytes);
+  if (!journal) {
+    if (journal.error().code == ErrorCode::kNotFound)
+      return make_error(ErrorCode::kCorrupt,
+                        "session " + dir.string() + " has no " + layout.journal_file().filename().string());
+    return journal.error();
+  }
+  const std::string& text = journal.value();
   size_t pos = 0;
   int line_no = 0;
   while (pos < text.size()) {
     const size_t end = text.find('\n', pos);
     ++line_no;
     if (end == std::string::npos) {
-      // No newline: the process died while appending this line. It was never acknowledged; drop it.
-      log::get("capture")->warn("session {}: dropping torn last journal line {}", dir.string(), line_no);
-      // Cut it off, or the next append would glue a new line onto it and corrupt the journal.
-      std::error_code ec;
-      fs::resize_file(layout.journal_file(), pos, ec);
-      if (ec) return make_error(ErrorCode::kIo, "cannot truncate torn journal line: " + ec.message());
+      // No newline: the process died while appending this line. It was never acknowledged; ignore it. A reader
+      // leaves the file alone: only a writer holding the lock cuts it off (repair_torn_journal).
+      const std::string warning = layout.journal_file().string() + ": torn last line " + std::to_string(line_no) +
+                                  " (a crash mid-append) ignored; the next capture or `vdrig session check --repair` "
+                                  "cuts it off";
+      log::get("capture")->warn("session {}: {}", dir.string(), warning);
+      s.journal_warnings_.push_back(warning);
+      s.journal_torn_when_read_ = true;
       break;
     }
     const std::string line = text.substr(pos, end - pos);
@@ -242,11 +252,14 @@ Result<Session> Session::open(const fs::path& dir) {
     if (type_field != j.end() && !type_field->is_string())
       return make_error(ErrorCode::kCorrupt, where + ": \"type\" must be a string");
     const std::string type = type_field == j.end() ? "" : type_field->get<std::string>();
-    if (type == "frame" || type == "view_complete") {
+    if (type == "frame" || type == "view_complete" || type == "view_redo") {
       // A completion line must name its view (the old default -1 counted a view that does not exist).
-      if (view_out_of_range(j, s.manifest_.views.size()) || (type == "view_complete" && !j.contains("view"))) {
-        log::get("capture")->warn("session {}: journal line {} names view {}, outside the manifest's {} views: ignored",
-                                  dir.string(), line_no, j.value("view", json()).dump(), s.manifest_.views.size());
+      if (view_out_of_range(j, s.manifest_.views.size()) || (type != "frame" && !j.contains("view"))) {
+        const std::string warning = "journal line " + std::to_string(line_no) + " names view " +
+                                    j.value("view", json()).dump() + ", outside the manifest's " +
+                                    std::to_string(s.manifest_.views.size()) + " views: ignored";
+        log::get("capture")->warn("session {}: {}", dir.string(), warning);
+        s.journal_warnings_.push_back(warning);
         continue;
       }
     }
@@ -260,6 +273,16 @@ Result<Session> Session::open(const fs::path& dir) {
       } catch (const json::exception& e) {
         return make_error(ErrorCode::kCorrupt, where + ": " + e.what());
       }
+    } else if (type == "view_redo") {
+      // The view is to be shot again: it is incomplete and its earlier frame lines no longer count.
+      int view = -1;
+      try {
+        view = checked_int<int>(j.at("view"), "view");
+      } catch (const json::exception& e) {
+        return make_error(ErrorCode::kCorrupt, where + ": " + e.what());
+      }
+      s.complete_views_.erase(view);
+      std::erase_if(s.frames_, [&](const FrameRecord& f) { return f.view == view; });
     }  // other types (events, faults) are informational
   }
   return s;
@@ -273,6 +296,7 @@ Result<Session> Session::open_for_capture(const fs::path& dir) {
   auto s = open(dir);
   if (!s) return s.error();
   s->lock_ = std::make_shared<ProcessLock>(std::move(lock.value()));
+  VDRIG_TRY(s->repair_torn_journal());
   return s;
 }
 
@@ -281,6 +305,69 @@ Status Session::lock() {
   auto lock = lock_session(dir_);
   if (!lock) return lock.error();
   lock_ = std::make_shared<ProcessLock>(std::move(lock.value()));
+  return repair_torn_journal();
+}
+
+namespace {
+
+/// The journal, opened for appending (and reading its tail: O_RDWR) without following a link (session_files.hpp).
+Result<detail::UniqueFd> open_journal_for_append(const fs::path& session_dir, const fs::path& journal_path) {
+  auto dir = detail::open_session_dir(session_dir);
+  if (!dir) return dir.error();
+  const std::string name = journal_path.filename().string();
+  const int fd = ::openat(dir->get(), name.c_str(), O_RDWR | O_APPEND | O_NOFOLLOW | O_CLOEXEC);
+  if (fd >= 0) return detail::UniqueFd(fd);
+  const int err = errno;
+  VDRIG_TRY(detail::check_regular_or_absent_at(dir->get(), name, journal_path));
+  return error_from_errno(err, "open " + journal_path.string());
+}
+
+/// Size of the journal up to and including its last newline: what remains once a torn last line is cut off.
+Result<uint64_t> bytes_through_last_newline(int fd, uint64_t size, const fs::path& shown) {
+  char buf[4096];
+  uint64_t end = size;
+  while (end > 0) {
+    const uint64_t begin = end > sizeof buf ? end - sizeof buf : 0;
+    const ssize_t n = ::pread(fd, buf, end - begin, static_cast<off_t>(begin));
+    if (n != static_cast<ssize_t>(end - begin)) return error_from_errno(n < 0 ? errno : EIO, "read " + shown.string());
+    for (ssize_t i = n; i > 0; --i)
+      if (buf[i - 1] == '\n') return begin + static_cast<uint64_t>(i);
+    end = begin;
+  }
+  return uint64_t{0};
+}
+
+/// Whether the journal (of `size` bytes) ends in a torn line: it is not empty and its last byte is not a newline.
+Result<bool> ends_torn(int fd, uint64_t size, const fs::path& shown) {
+  if (size == 0) return false;
+  char last = 0;
+  if (::pread(fd, &last, 1, static_cast<off_t>(size - 1)) != 1)
+    return error_from_errno(errno ? errno : EIO, "read " + shown.string());
+  return last != '\n';
+}
+
+}  // namespace
+
+Status Session::repair_torn_journal(const ProcessLock* held_lock) {
+  const fs::path path = layout().journal_file();
+  if (!locked() && held_lock == nullptr)
+    return make_error(ErrorCode::kInvalidArgument,
+                      path.string() + ": only a writer holding the session's lock may repair the journal");
+  auto journal = open_journal_for_append(dir_, path);
+  if (!journal) return journal.error();
+  struct stat st {};
+  if (::fstat(journal->get(), &st) != 0) return error_from_errno(errno, "stat " + path.string());
+  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  auto torn = ends_torn(journal->get(), size, path);
+  if (!torn) return torn.error();
+  if (torn.value()) {
+    auto keep = bytes_through_last_newline(journal->get(), size, path);
+    if (!keep) return keep.error();
+    log::get("capture")->warn("session {}: cutting the torn last journal line off ({} bytes)", dir_.string(),
+                              size - keep.value());
+    if (::ftruncate(journal->get(), static_cast<off_t>(keep.value())) != 0 || ::fsync(journal->get()) != 0)
+      return error_from_errno(errno, "cut the torn last line off " + path.string());
+  }
   return Status::ok();
 }
 
@@ -301,11 +388,20 @@ std::vector<FrameRecord> Session::frames_of_view(int view) const {
 
 namespace {
 
-/// Writes `bytes` to `path` (created or truncated) and starts its writeback without waiting for it, so the disk
-/// works while the next frame is being taken; durability comes later from fsync_path().
-Status write_frame_file(const fs::path& path, const std::vector<uchar>& bytes) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return error_from_errno(errno, "create " + path.string());
+/// Writes `bytes` as the new file `name` of the folder `frames_fd` (`path` names it in errors) and starts its
+/// writeback without waiting for it, so the disk works while the next frame is being taken; durability comes later
+/// (fsync_frame_file). A previous file of that name (an interrupted or redone view's) is removed first and the new
+/// one created with O_EXCL | O_NOFOLLOW, so a link planted at the name is refused, never written through.
+Status write_frame_file(int frames_fd, const std::string& name, const fs::path& path, const std::vector<uchar>& bytes) {
+  VDRIG_TRY(detail::check_regular_or_absent_at(frames_fd, name, path));
+  if (::unlinkat(frames_fd, name.c_str(), 0) != 0 && errno != ENOENT)
+    return error_from_errno(errno, "remove the old " + path.string());
+  const int fd = ::openat(frames_fd, name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    const int err = errno;
+    VDRIG_TRY(detail::check_regular_or_absent_at(frames_fd, name, path));  // a link planted meanwhile
+    return error_from_errno(err, "create " + path.string());
+  }
   if (const int err = write_all(fd, bytes.data(), bytes.size()); err != 0) {
     ::close(fd);
     return error_from_errno(err, "write " + path.string());
@@ -316,18 +412,40 @@ Status write_frame_file(const fs::path& path, const std::vector<uchar>& bytes) {
   return Status::ok();
 }
 
+/// fsync()s the file `name` of the folder `dir_fd` (opened without following a link).
+Status fsync_at(int dir_fd, const std::string& name, const fs::path& path) {
+  const int fd = ::openat(dir_fd, name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return error_from_errno(errno, "open " + path.string());
+  int rc = 0;
+  do rc = ::fsync(fd);
+  while (rc != 0 && errno == EINTR);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) return error_from_errno(err, "fsync " + path.string());
+  return Status::ok();
+}
+
 }  // namespace
 
 Status Session::append_journal(const std::string& text) {
   const fs::path path = layout().journal_file();
   if (write_hook_) VDRIG_TRY(write_hook_(path));
-  const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
-  if (fd < 0) return make_error(ErrorCode::kIo, "open " + path.string() + ": " + std::strerror(errno));
+  auto journal = open_journal_for_append(dir_, path);
+  if (!journal) return journal.error();
+  const int fd = journal->get();
   struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    const int err = errno;
-    ::close(fd);
-    return make_error(ErrorCode::kIo, "stat " + path.string() + ": " + std::strerror(err));
+  if (::fstat(fd, &st) != 0) return error_from_errno(errno, "stat " + path.string());
+  // A line appended after a torn one would be glued onto it and corrupt the journal: the tail must be whole.
+  auto torn = ends_torn(fd, static_cast<uint64_t>(st.st_size), path);
+  if (!torn) return torn.error();
+  if (torn.value()) {
+    if (!locked())
+      return make_error(ErrorCode::kInvalidArgument,
+                        path.string() +
+                            " ends in a torn line: not appended to (a capture holding the session lock, "
+                            "or `vdrig session check --repair`, repairs it)");
+    VDRIG_TRY(repair_torn_journal());
+    if (::fstat(fd, &st) != 0) return error_from_errno(errno, "stat " + path.string());
   }
   // One write() to an O_APPEND file; a crash leaves at most a torn last line (dropped on open).
   const ssize_t n = ::write(fd, text.data(), text.size());
@@ -338,7 +456,6 @@ Status Session::append_journal(const std::string& text) {
     // Whatever part did land must not count (nor glue onto the next append): cut it off again.
     if (::ftruncate(fd, st.st_size) == 0) (void)::fsync(fd);
   }
-  ::close(fd);
   if (n != static_cast<ssize_t>(text.size())) {
     const int err = n < 0 ? write_errno : ENOSPC;  // a short write to a regular file means the disk is full
     return error_from_errno(err, "append to journal");
@@ -364,7 +481,9 @@ Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Fra
   }
   if (write_hook_) VDRIG_TRY(write_hook_(dir_ / name));
   // No temporary + rename: until the view's commit no journal line names this file, so a torn file is never read.
-  VDRIG_TRY(write_frame_file(dir_ / name, bytes));
+  auto frames_dir = detail::open_session_folder(dir_, layout().frames_dir().filename().string(), true);
+  if (!frames_dir) return frames_dir.error();
+  VDRIG_TRY(write_frame_file(frames_dir->get(), fs::path(name).filename().string(), dir_ / name, bytes));
   FrameRecord r;
   r.view = view;
   r.bracket_index = bracket_index;
@@ -388,8 +507,11 @@ Status Session::mark_view_complete(int view, int frames) {
     if (p.view == view && (frames < 0 || p.bracket_index < frames)) batch.push_back(p);
   if (!batch.empty()) {
     // Data first, then the names, then the line that makes them count.
-    for (const auto& r : batch) VDRIG_TRY(fsync_path(dir_ / r.file, false));
-    VDRIG_TRY(fsync_path(layout().frames_dir(), true));
+    auto frames_dir = detail::open_session_folder(dir_, layout().frames_dir().filename().string(), false);
+    if (!frames_dir) return frames_dir.error();
+    for (const auto& r : batch)
+      VDRIG_TRY(fsync_at(frames_dir->get(), fs::path(r.file).filename().string(), dir_ / r.file));
+    if (::fsync(frames_dir->get()) != 0) return error_from_errno(errno, "fsync " + layout().frames_dir().string());
   }
   std::string text;
   for (const auto& r : batch) text += r.to_json().dump() + "\n";
@@ -415,7 +537,43 @@ Status Session::append_event(const json& event) {
   return append_journal(line.dump() + "\n");
 }
 
-Result<cv::Mat> Session::load_image(const FrameRecord& record) const { return read_png(dir_ / record.file); }
+Result<cv::Mat> Session::load_image(const FrameRecord& record) const {
+  VDRIG_TRY(check_no_symlinks_below(dir_, dir_ / record.file));
+  return read_png(dir_ / record.file);
+}
+
+Status Session::mark_views_incomplete(const std::vector<int>& views, const std::string& reason) {
+  if (!locked())
+    return make_error(ErrorCode::kInvalidArgument,
+                      "session " + dir_.string() + ": marking views incomplete needs the session's lock");
+  for (const int v : views)
+    if (v < 0 || v >= static_cast<int>(manifest_.views.size()))
+      return make_error(ErrorCode::kInvalidArgument, "session " + dir_.string() + " has no view " + std::to_string(v) +
+                                                         " (views 0.." + std::to_string(manifest_.views.size() - 1) +
+                                                         ")");
+  // The HDR files were merged from the frames being replaced: remove them first (a crash after this and before the
+  // journal line leaves a complete view without its HDR, which `vdrig hdr` merges again).
+  auto hdr_dir = detail::open_session_folder(dir_, layout().hdr_dir().filename().string(), false);
+  if (hdr_dir) {
+    for (const int v : views) {
+      const fs::path hdr = layout().hdr_file(v);
+      if (::unlinkat(hdr_dir->get(), hdr.filename().c_str(), 0) != 0 && errno != ENOENT)
+        return error_from_errno(errno, "remove " + hdr.string());
+    }
+    if (::fsync(hdr_dir->get()) != 0) return error_from_errno(errno, "fsync " + layout().hdr_dir().string());
+  } else if (hdr_dir.error().code != ErrorCode::kNotFound) {
+    return hdr_dir.error();
+  }
+  std::string text;
+  for (const int v : views)
+    text += json{{"type", "view_redo"}, {"view", v}, {"reason", reason}, {"utc", utc_now()}}.dump() + "\n";
+  VDRIG_TRY(append_journal(text));
+  for (const int v : views) {
+    complete_views_.erase(v);
+    std::erase_if(frames_, [&](const FrameRecord& f) { return f.view == v; });
+  }
+  return Status::ok();
+}
 
 Status Session::update_extra(const json& extra) {
   manifest_.extra = extra;

@@ -59,11 +59,42 @@ fs::path temporary_sibling(const fs::path& path) {
 
 Status check_replaceable(const fs::path& path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return Status::ok();  // absent, or a file to replace
+  if (::lstat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return Status::ok();  // absent, or a file to replace
+  if (S_ISLNK(st.st_mode))
+    return make_error(ErrorCode::kInvalidArgument,
+                      path.string() + " is a symbolic link: not replaced (nor written through); remove it first");
   return make_error(ErrorCode::kInvalidArgument,
                     path.string() +
                         " exists and is not a regular file (a device, FIFO, socket or folder): not "
                         "replaced; write to a file instead");
+}
+
+Status check_no_symlinks_below(const fs::path& base, const fs::path& target) {
+  const fs::path relative = target.lexically_relative(base);
+  if (relative.empty() || *relative.begin() == "..")
+    return make_error(ErrorCode::kInvalidArgument, target.string() + " is not inside " + base.string());
+  fs::path walked = base;
+  for (const auto& part : relative) {
+    if (part == ".") continue;
+    walked /= part;
+    struct stat st {};
+    if (::lstat(walked.c_str(), &st) != 0) {
+      if (errno == ENOENT) return Status::ok();  // the rest is created by the writer
+      return error_from_errno(errno, "lstat " + walked.string());
+    }
+    if (S_ISLNK(st.st_mode))
+      return make_error(ErrorCode::kInvalidArgument, walked.string() + " is a symbolic link: refused (a link inside " +
+                                                         base.string() + " could redirect the write; remove it)");
+  }
+  return Status::ok();
+}
+
+Result<int> create_new_file(const fs::path& path) {
+  int fd = -1;
+  do fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  while (fd < 0 && errno == EINTR);
+  if (fd < 0) return error_from_errno(errno, "create " + path.string());
+  return fd;
 }
 
 Status commit_temporary(const fs::path& temporary, const fs::path& path) {
@@ -86,9 +117,11 @@ Status commit_temporary(const fs::path& temporary, const fs::path& path) {
 }
 
 Status write_file_atomic(const fs::path& path, const std::string& bytes) {
+  VDRIG_TRY(check_replaceable(path));
   const fs::path tmp = temporary_sibling(path);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return error_from_errno(errno, "create " + tmp.string());
+  auto created = create_new_file(tmp);
+  if (!created) return created.error();
+  const int fd = created.value();
   if (const int err = write_all(fd, bytes.data(), bytes.size()); err != 0) {
     ::close(fd);
     std::error_code ignored;

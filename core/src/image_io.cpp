@@ -5,13 +5,18 @@
 #include <ImfFloatAttribute.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfIO.h>
 #include <ImfInputFile.h>
 #include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
 
 #include "vdrig/core/file_read.hpp"
 
@@ -45,10 +50,42 @@ void ExrImage::add_bgr(const cv::Mat& bgr) {
   add("B", planes[0]);
 }
 
+namespace {
+
+/// OpenEXR's output stream over a descriptor we opened (create_new_file: O_EXCL | O_NOFOLLOW). OpenEXR's own
+/// file stream opens the path itself with truncation and follows links, which a planted link would redirect.
+class DescriptorOStream final : public Imf::OStream {
+ public:
+  DescriptorOStream(int fd, const fs::path& path) : Imf::OStream(path.c_str()), fd_(fd), path_(path) {}
+  void write(const char data[], int n) override {
+    if (const int err = write_all(fd_, data, static_cast<size_t>(n)); err != 0)
+      throw std::runtime_error(error_from_errno(err, "write " + path_.string()).message);
+  }
+  uint64_t tellp() override {
+    const off_t at = ::lseek(fd_, 0, SEEK_CUR);
+    if (at < 0) throw std::runtime_error(error_from_errno(errno, "seek " + path_.string()).message);
+    return static_cast<uint64_t>(at);
+  }
+  void seekp(uint64_t pos) override {
+    if (::lseek(fd_, static_cast<off_t>(pos), SEEK_SET) < 0)
+      throw std::runtime_error(error_from_errno(errno, "seek " + path_.string()).message);
+  }
+
+ private:
+  int fd_;
+  fs::path path_;
+};
+
+}  // namespace
+
 Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type) {
   if (image.channels.empty())
     return make_error(ErrorCode::kInvalidArgument, "no channels to write to " + path.string());
+  VDRIG_TRY(check_replaceable(path));
   const fs::path tmp = temporary_sibling(path);
+  auto created = create_new_file(tmp);
+  if (!created) return created.error();
+  const int fd = created.value();
   try {
     Imf::Header header(image.width, image.height);
     header.compression() = Imf::ZIP_COMPRESSION;
@@ -76,11 +113,14 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
                            c.step[0]));
     }
     {
-      Imf::OutputFile out(tmp.c_str(), header);
+      DescriptorOStream stream(fd, tmp);
+      Imf::OutputFile out(stream, header);
       out.setFrameBuffer(fb);
       out.writePixels(image.height);
     }
+    ::close(fd);
   } catch (const std::exception& e) {
+    ::close(fd);
     std::error_code ec;
     fs::remove(tmp, ec);
     const bool full = std::strstr(e.what(), "No space") != nullptr;

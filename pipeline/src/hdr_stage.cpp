@@ -7,6 +7,7 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/calib/hdr.hpp"
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 
@@ -15,6 +16,7 @@ namespace fs = std::filesystem;
 
 Result<ResponseCurve> session_response(const capture::Session& session) {
   const fs::path calibrated = session.layout().response_file();
+  VDRIG_TRY(check_no_symlinks_below(session.dir(), calibrated));
   if (fs::exists(calibrated)) {
     auto j = read_json_file(calibrated);
     if (!j) return j.error();
@@ -32,6 +34,9 @@ Status merge_session_hdr(const capture::Session& session, const HdrMergeOptions&
   auto response = session_response(session);
   if (!response) return response.error();
   const capture::SessionLayout layout = session.layout();
+  // Sessions may sit in folders other users write to: a link planted at hdr/ (or at a file in it) would redirect
+  // the EXRs. Refused here and again before each write (check_replaceable refuses a link at the file itself).
+  VDRIG_TRY(check_no_symlinks_below(session.dir(), layout.hdr_dir()));
   std::error_code ec;
   fs::create_directories(layout.hdr_dir(), ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + layout.hdr_dir().string() + ": " + ec.message());
@@ -43,6 +48,11 @@ Status merge_session_hdr(const capture::Session& session, const HdrMergeOptions&
     for (size_t i = next++; i < views.size(); i = next++) {
       const int v = views[i].index;
       if (!session.view_complete(v)) continue;
+      if (Status linked = check_no_symlinks_below(session.dir(), layout.hdr_file(v)); !linked) {
+        std::lock_guard lock(error_mutex);
+        if (first_error) first_error = linked;
+        continue;
+      }
       if (!options.force && fs::exists(layout.hdr_file(v))) {
         auto existing = calib::read_hdr_exr(layout.hdr_file(v));
         if (existing) continue;

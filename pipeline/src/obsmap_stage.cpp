@@ -4,6 +4,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/calib/hdr.hpp"
+#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 
@@ -101,6 +102,9 @@ Status build_session_obsmap_file(const capture::Session& session, int S, int T, 
   fitting::ObservationMapSpec spec{S, T, session.manifest().surface_width_mm, session.manifest().surface_height_mm};
   std::string why;
   if (!spec.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, why);
+  // A file of the session (obsmap/) is never reached through a link planted in the session.
+  if (const fs::path inside = path.lexically_relative(session.dir()); !inside.empty() && *inside.begin() != "..")
+    VDRIG_TRY(check_no_symlinks_below(session.dir(), path));
   std::error_code ec;
   if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
   auto writer = fitting::ObsMapWriter::create(path, spec, static_cast<int>(views.size()), options.file);

@@ -16,9 +16,18 @@
 //   per view): a crash can only lose the view in hand, and that was already so, because a view without a durable
 //   view_complete line is recaptured whole on resume (its journaled frames were never used). What a completed view
 //   promises is unchanged: its frame files decode and hold what the lines say. A torn batch (crash mid-write) is
-//   a torn last line plus complete frame lines without a view_complete: dropped and ignored respectively on open.
+//   a torn last line plus complete frame lines without a view_complete: ignored on open. Readers never write: only
+//   a writer holding the session's lock (capture, resume, `vdrig session check --repair`) cuts a torn last line off.
+//   A view_redo line ({"type":"view_redo","view":V}) makes a complete view incomplete again (and voids its earlier
+//   frame lines), so the next capture re-shoots it (`vdrig capture --resume S --redo V`, `vdrig session check
+//   --repair`).
+//
+//   Hostile folders: sessions may live where other users can write. Files and folders below the session folder are
+//   opened relative to their parent's descriptor with O_NOFOLLOW; a symbolic link at a file or folder vdrig reads or
+//   writes (manifest.json, journal.jsonl, frames/ and its files, ...) is an error naming it, never followed.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -86,19 +95,35 @@ class Session {
  public:
   /// Creates the folder (must not exist or be empty) and writes the manifest (which must plan at least one view).
   static Result<Session> create(const std::filesystem::path& dir, Manifest manifest);
-  /// Opens an existing session; reads the manifest and replays the journal. A torn last journal line (a crash
-  /// mid-append) is dropped with a warning and cut off the file (so the next append starts a clean line); any
-  /// other malformed line is kCorrupt.
+  /// Opens an existing session; reads the manifest and replays the journal, writing nothing. A torn last journal
+  /// line (a crash mid-append) is ignored with a warning and left in the file (repair_torn_journal() cuts it off,
+  /// under the lock); any other malformed line is kCorrupt. A symbolic link at manifest.json or journal.jsonl is
+  /// kInvalidArgument naming it.
   /// Journal lines naming a view outside the manifest (a negative, too large or non-integer "view", or a completion
   /// line without one) are ignored with a warning that says so. A manifest without views is kCorrupt.
   static Result<Session> open(const std::filesystem::path& dir);
   /// open() for capturing: takes the session's lock (lock()) before replaying the journal, so no other process
-  /// appends while it is read. The lock is held as long as this Session (or a copy) lives.
+  /// appends while it is read, then cuts a torn last journal line off. The lock is held as long as this Session (or
+  /// a copy) lives.
   static Result<Session> open_for_capture(const std::filesystem::path& dir);
 
   /// Locks the session for capturing (process_lock.hpp; SessionLayout::lock_file()) unless this Session holds the
-  /// lock already. Another process capturing: kInvalidArgument "session DIR is in use by PID n".
+  /// lock already, then repairs a torn journal tail. Another process capturing: kInvalidArgument "session DIR is in
+  /// use by PID n".
   Status lock();
+  /// Cuts a torn last journal line (a crash mid-append) off the file, so the next append starts a clean line. Only
+  /// for a writer holding the session's lock: this Session's (locked()) or `held_lock`, the one run_capture takes;
+  /// kInvalidArgument otherwise. Nothing to do: ok.
+  Status repair_torn_journal(const ProcessLock* held_lock = nullptr);
+  /// Whether the journal ended in a torn line when it was read (open_for_capture() has cut it off since).
+  bool journal_torn() const { return journal_torn_when_read_; }
+  /// What open() ignored in the journal, one message per line (a torn last line, lines naming no planned view).
+  const std::vector<std::string>& journal_warnings() const { return journal_warnings_; }
+  /// Marks complete views incomplete again so the next capture re-shoots them: removes their hdr/ files (made from
+  /// the old frames), then appends one view_redo line per view with `reason` in one fsync'd write. Needs the lock
+  /// (locked()); a view outside the manifest is kInvalidArgument and nothing is changed. Incomplete views are
+  /// accepted (nothing to undo, the line is still written).
+  Status mark_views_incomplete(const std::vector<int>& views, const std::string& reason);
   /// Whether this Session (or a copy) holds the session's lock.
   bool locked() const { return lock_ != nullptr; }
 
@@ -135,7 +160,8 @@ class Session {
   /// is (e.g. kNoSpace) and nothing is written. Empty by default.
   using WriteHook = std::function<Status(const std::filesystem::path&)>;
   void set_write_hook(WriteHook hook) { write_hook_ = std::move(hook); }
-  /// Loads a recorded frame's pixels (error if missing or undecodable).
+  /// Loads a recorded frame's pixels (error if missing or undecodable, or if a symbolic link is on its path inside
+  /// the session).
   Result<cv::Mat> load_image(const FrameRecord& record) const;
 
   /// Rewrites the manifest's `extra` section atomically (stages record their settings there).
@@ -153,6 +179,8 @@ class Session {
   std::vector<FrameRecord> pending_;   // frames of the view in hand: files written, not yet committed
   WriteHook write_hook_;
   std::shared_ptr<ProcessLock> lock_;  // held while capturing (shared by copies; released when the last goes)
+  bool journal_torn_when_read_ = false;
+  std::vector<std::string> journal_warnings_;
 };
 
 /// The software version written into manifests.

@@ -26,12 +26,23 @@ Status fsync_path(const std::filesystem::path& path, bool is_dir);
 /// the errno of the failure (ENOSPC when write() makes no progress: on a regular file that means the disk is full).
 int write_all(int fd, const void* data, size_t size);
 
-/// A fresh hidden name beside `path` (".<name>.tmp<random>") for the atomic replace protocol.
+/// A fresh hidden name beside `path` (".<name>.tmp<random>") for the atomic replace protocol. Writers create it with
+/// create_new_file(), so a link planted at the name is refused rather than followed.
 std::filesystem::path temporary_sibling(const std::filesystem::path& path);
 
-/// kInvalidArgument when `path` exists (following links) and is not a regular file: a device such as /dev/null, a
-/// FIFO, a socket or a folder. Renaming over it would replace it (as root, /dev/null itself), so outputs refuse it.
+/// kInvalidArgument when `path` exists and is not a regular file: a symbolic link (whoever planted it meant the
+/// write to land elsewhere), a device such as /dev/null, a FIFO, a socket or a folder. Renaming over it would replace
+/// it (as root, /dev/null itself), so outputs refuse it.
 Status check_replaceable(const std::filesystem::path& path);
+
+/// kInvalidArgument naming the first symbolic link among the components of `target` below `base` (`base` itself, the
+/// folder the caller chose, is not looked at; `target` must lie below it). Components that do not exist yet are fine.
+/// For writers into folders other users may write to (a session): a planted link would redirect the write.
+Status check_no_symlinks_below(const std::filesystem::path& base, const std::filesystem::path& target);
+
+/// Creates `path` for writing as a new file (O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, mode 0644): never opens an
+/// existing file or follows a link planted at the name. The descriptor, or the errno-mapped error naming `path`.
+Result<int> create_new_file(const std::filesystem::path& path);
 
 /// Completes the atomic replace: fsyncs the fully written `temporary`, renames it to `path` and fsyncs path's folder.
 /// On failure before the rename (check_replaceable included) the temporary is removed and `path` is untouched.
