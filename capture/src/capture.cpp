@@ -77,7 +77,10 @@ bool stop_now(const CaptureOptions& o) { return o.stop_requested && o.stop_reque
 
 }  // namespace
 
-Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options) {
+namespace {
+
+/// run_capture; `stage_failed` (when not null) is set when a stage command (move, position) failed for good.
+Status capture_views(rig::Rig& rig, Session& session, const CaptureOptions& options, bool* stage_failed) {
   std::string why;
   if (!options.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "capture options: " + why);
   // One capturer per session: a second process would drive its rig through the same views. Held for this run unless
@@ -135,9 +138,13 @@ Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& option
                                                  std::to_string(options.disk_reserve_bytes >> 20) +
                                                  " MiB + one view); free space and resume");
     progress.view = view.index;
-    VDRIG_TRY(with_retry(options.retry, "stage move", [&] { return rig.stage->move_to(view.target); }));
-    auto measured = with_retry(options.retry, "stage position", [&] { return rig.stage->position(); });
-    if (!measured) return measured.error();
+    const Status moved = with_retry(options.retry, "stage move", [&] { return rig.stage->move_to(view.target); });
+    auto measured = moved ? with_retry(options.retry, "stage position", [&] { return rig.stage->position(); })
+                          : Result<PanTilt>(moved.error());
+    if (!measured) {
+      if (stage_failed) *stage_failed = true;
+      return measured.error();
+    }
 
     int frames = 0;
     double exposure_s = bracket.kind == BracketSpec::Kind::kFixed ? bracket.exposures_s[0] : bracket.ceiling_s;
@@ -177,10 +184,22 @@ Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& option
   return Status::ok();
 }
 
+}  // namespace
+
+Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options) {
+  return capture_views(rig, session, options, nullptr);
+}
+
 Status run_session(rig::Rig& rig, Session& session, const CaptureOptions& options, bool park) {
   VDRIG_TRY(with_retry(options.retry, "stage home", [&] { return rig.stage->home(); }));
-  const Status s = run_capture(rig, session, options);
-  if (park) {
+  bool stage_failed = false;
+  const Status s = capture_views(rig, session, options, &stage_failed);
+  // After a stage fault (a stalled axis, a drive alarm) a park would move whichever axis still answers, into a rig
+  // that may be jammed: the axes stay where they are, and the operator is told.
+  if (park && stage_failed) {
+    log::get("capture")->warn("not parking the axes: the stage failed ({}); they stay where they are",
+                              s.error().message);
+  } else if (park) {
     const Status p = rig.stage->move_to(PanTilt{0.0, 0.0});
     if (!p) log::get("capture")->warn("parking the axes failed: {}", p.describe());
   }

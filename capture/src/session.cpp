@@ -416,13 +416,7 @@ Status write_frame_file(int frames_fd, const std::string& name, const fs::path& 
 Status fsync_at(int dir_fd, const std::string& name, const fs::path& path) {
   const int fd = ::openat(dir_fd, name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) return error_from_errno(errno, "open " + path.string());
-  int rc = 0;
-  do rc = ::fsync(fd);
-  while (rc != 0 && errno == EINTR);
-  const int err = errno;
-  ::close(fd);
-  if (rc != 0) return error_from_errno(err, "fsync " + path.string());
-  return Status::ok();
+  return fsync_and_close(fd, path);
 }
 
 }  // namespace

@@ -25,6 +25,10 @@ Status fsync_path(const fs::path& path, bool is_dir) {
   do fd = ::open(path.c_str(), flags);
   while (fd < 0 && errno == EINTR);
   if (fd < 0) return error_from_errno(errno, "open " + path.string());
+  return fsync_and_close(fd, path);
+}
+
+Status fsync_and_close(int fd, const fs::path& path) {
   int rc = 0;
   do rc = ::fsync(fd);
   while (rc != 0 && errno == EINTR);

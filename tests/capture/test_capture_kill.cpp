@@ -179,5 +179,31 @@ TEST(CaptureKill, FullDiskStopsWithNoSpaceAndResumes) {
   fs::remove_all(dir);
 }
 
+// A stalled axis (a drive alarm that outlasts the retries) ends the capture, and the axes stay where they are: before,
+// the capture "parked" by moving to (0, 0), i.e. drove whichever axis still answered into a jammed rig.
+TEST(StageFault, TheAxesAreNotParkedAfterAStageFault) {
+  const fs::path dir = create_session("stall", "latlong:2", "fixed:0.01");
+  auto session = Session::open(dir);
+  ASSERT_TRUE(session) << session.error().describe();
+  json config = small_sim_config();
+  // Moves 1 and 2 reach views 0 and 1; move 3 (view 2) fails on every one of its 4 attempts; a park would be move 7.
+  config["sim"]["faults"] = {{"drive_error_at", {3, 4, 5, 6}}};
+  auto rig = make_sim_rig(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  CaptureOptions o;
+  o.bracket = parse_bracket("fixed:0.01").value();
+  o.disk_reserve_bytes = 0;
+  o.retry.initial_backoff_s = 0.001;
+  const Status s = run_session(rig.value(), session.value(), o);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().code, ErrorCode::kDevice) << s.describe();
+  const auto at = rig->stage->position();
+  ASSERT_TRUE(at) << at.error().describe();
+  const PanTilt view1 = session->manifest().views[1].target;
+  EXPECT_NEAR(at->pan_rad, view1.pan_rad, 1e-9) << "the stage was parked";
+  EXPECT_NEAR(at->tilt_rad, view1.tilt_rad, 1e-9) << "the stage was parked";
+  EXPECT_GT(std::abs(at->tilt_rad) + std::abs(at->pan_rad), 1e-3) << "view 1 is not at (0, 0)";
+}
+
 }  // namespace
 }  // namespace vdrig::capture

@@ -64,8 +64,8 @@ Result<uint64_t> disk_reserve_bytes_from_mib(double mib);
 /// or the device/I-O failure that outlasted the retries. Warns (log and journal) when the camera is in auto exposure.
 Status run_capture(rig::Rig& rig, Session& session, const CaptureOptions& options);
 
-/// Homes the stage, runs run_capture and parks the axes at pan = tilt = 0 whatever the outcome (when
-/// `park` is set and the stage answers).
+/// Homes the stage, runs run_capture and parks the axes at pan = tilt = 0 (when `park` is set), unless the capture
+/// ended on a stage fault: then the axes stay where they are (parking would move the axis that still answers).
 Status run_session(rig::Rig& rig, Session& session, const CaptureOptions& options, bool park = true);
 
 /// True when any pixel of a camera frame is at the maximum code of its bit depth.

@@ -21,6 +21,9 @@ Error error_from_errno(int err, const std::string& what);
 /// entries durable). Opens it read-only with O_CLOEXEC; EINTR is retried. Errors: "open <path>: ..." or
 /// "fsync <path>: ..." with the code of error_code_from_errno.
 Status fsync_path(const std::filesystem::path& path, bool is_dir);
+/// fsync()s the open descriptor `fd` (retried on EINTR; `path` names it in the error) and closes it, whatever the
+/// outcome.
+Status fsync_and_close(int fd, const std::filesystem::path& path);
 
 /// Writes all `size` bytes at fd's current offset, retrying EINTR and continuing after short writes. Returns 0 or
 /// the errno of the failure (ENOSPC when write() makes no progress: on a regular file that means the disk is full).
