@@ -155,8 +155,18 @@ void SocketServer::accept_clients() {
                                                                " connected); close some or try again later"});
       const std::string reply = dump_line(refusal);
       [[maybe_unused]] const ssize_t n = ::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL);
-      logger_->warn("refused connection from uid {} gid {}", known ? static_cast<long>(cred.uid) : -1L,
-                    known ? static_cast<long>(cred.gid) : -1L);
+      // One line per refusal, but at most one a second: a crowd of 200 clients must not flood the log.
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_refusal_log_ >= std::chrono::seconds(1)) {
+        logger_->warn(
+            "refused connection from uid {} gid {}: {}{}", known ? static_cast<long>(cred.uid) : -1L,
+            known ? static_cast<long>(cred.gid) : -1L, refusal.value("error", ""),
+            refusals_unlogged_ ? fmt::format(" ({} more refused since the last such line)", refusals_unlogged_) : "");
+        last_refusal_log_ = now;
+        refusals_unlogged_ = 0;
+      } else {
+        ++refusals_unlogged_;
+      }
       ::close(fd);
       continue;
     }

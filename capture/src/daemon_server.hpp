@@ -90,6 +90,8 @@ class SocketServer {
   const DaemonConfig& config_;
   int listen_fd_ = -1;
   bool bound_ = false;  // socket_path() is this server's socket (close() removes it)
+  std::chrono::steady_clock::time_point last_refusal_log_{};  // refusals are logged at most once a second
+  int refusals_unlogged_ = 0;
   int wake_pipe_[2] = {-1, -1};
   std::map<int, Connection> clients_;
   std::shared_ptr<spdlog::logger> logger_;
