@@ -7,6 +7,7 @@
 #include "vdrig/capture/process_lock.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/core/json_text.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -64,12 +65,15 @@ Status devices() {
 }
 
 Status check(const RigArgs& a) {
-  auto config = read_config(a.config);
-  if (!config) return config.error();
-  auto report = rig::check_rig_config(config.value(), pipeline::full_registry());
-  // The simulator's section is its module's to read.
-  if (config->is_object() && config->contains("sim"))
-    if (auto sim = sim::SimConfig::from_json((*config)["sim"]); !sim) report.problems.push_back(sim.error().message);
+  // Read as text here, not with read_config: a repeated key is one more problem to list with the others, not a
+  // reason to stop before them.
+  auto text = read_regular_file(a.config, kMaxJsonFileBytes);
+  if (!text) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + text.error().message);
+  auto parsed = parse_json_text(text.value(), a.config);
+  if (!parsed) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + parsed.error().message);
+  const json& config = parsed->value;
+  auto report = rig::check_rig_config(config, pipeline::full_registry());
+  report.problems.insert(report.problems.begin(), parsed->duplicate_keys.begin(), parsed->duplicate_keys.end());
   std::printf("effective settings:\n%s\n", report.effective.dump(2).c_str());
   if (!report.problems.empty()) {
     std::printf("%zu problem(s):\n", report.problems.size());

@@ -85,6 +85,33 @@ TEST_F(RigCli, CheckListsEveryProblemAtOnce) {
     EXPECT_NE(r.out.find(problem), std::string::npos) << problem << " not reported:\n" << r.out;
 }
 
+// Issue 23: misspelt top-level keys, a "lock" that is not a name, unknown keys in the simulator's device sections
+// and a repeated key all passed as "config valid". Each is now a problem, all listed in one run.
+TEST_F(RigCli, CheckNamesMisspeltTopLevelKeysAndRepeatedKeys) {
+  json config = peer_rig_config(502);
+  config["geomtry"] = {{"distance_mm", 2000}};
+  config["ligth"] = {{"backend", "sim"}};
+  config["simm"] = {{"scene", "checkerboard"}};
+  config["lock"] = 5;
+  config["camera"]["exposure_s"] = 0.01;  // the sim camera's section holds only its backend
+  std::string text = config.dump(2);
+  const std::string host = "\"host\": \"127.0.0.1\"";
+  ASSERT_NE(text.find(host), std::string::npos) << text;
+  text.replace(text.find(host), host.size(), host + ",\n    \"host\": \"10.0.0.9\"");
+  testing::write_text(rig_file_, text);
+  const auto r = vdrig({"rig", "check", rig_file_.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_EQ(r.out.find("config valid"), std::string::npos) << r.out;
+  for (const char* problem :
+       {"unknown top-level key \"geomtry\"", "unknown top-level key \"ligth\"", "unknown top-level key \"simm\"",
+        "\"lock\" must be", "unknown setting \"exposure_s\"", "duplicate key \"host\" in stage"})
+    EXPECT_NE(r.out.find(problem), std::string::npos) << problem << " not reported:\n" << r.out;
+  // A command that drives the rig refuses the file outright, naming the repeated key.
+  const auto position = vdrig({"rig", "position", "--rig", rig_file_.string()});
+  EXPECT_EQ(position.exit_code, 2) << position.out << position.err;
+  EXPECT_NE(position.err.find("duplicate key \"host\" in stage"), std::string::npos) << position.err;
+}
+
 TEST_F(RigCli, CheckPrintsEffectiveSettingsWithDefaultsAndRegisterMap) {
   testing::write_text(rig_file_, peer_rig_config(502).dump(2));
   const auto r = vdrig({"rig", "check", rig_file_.string()});
