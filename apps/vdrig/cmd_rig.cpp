@@ -19,7 +19,7 @@ constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 
 struct RigArgs {
   std::string config;
-  std::string runtime_dir = capture::default_runtime_dir().string();
+  std::string runtime_dir;  // ignored: locks no longer live in a runtime folder (process_lock.hpp)
   bool self_test = false;
   double pan_deg = 0.0, tilt_deg = 0.0;
   double exposure_s = 0.01, gain = 1.0;
@@ -42,7 +42,7 @@ Result<OpenRig> open_rig(const RigArgs& a) {
   auto config = read_config(a.config);
   if (!config) return config.error();
   OpenRig open;
-  auto lock = capture::lock_rig(config.value(), a.runtime_dir);
+  auto lock = capture::lock_rig(config.value());
   if (!lock) return lock.error();
   open.lock = std::move(lock.value());
   auto rig = pipeline::full_registry().make_rig(config.value());
@@ -145,8 +145,8 @@ CommandRegistrar reg([](CLI::App& root) {
       cmd->add_option("CONFIG", a->config, "rig config JSON file")->required();
     else
       cmd->add_option("--rig", a->config, "rig config JSON file")->required();
-    cmd->add_option("--runtime-dir", a->runtime_dir, "folder of the rig locks (vdrigd's runtime dir)")
-        ->capture_default_str();
+    cmd->add_option("--runtime-dir", a->runtime_dir,
+                    "ignored, for older scripts: rigs are locked per device wherever the runtime folder is");
   };
   rig->add_subcommand("devices", "list cameras, serial ports and GPIO chips found on this machine")->callback([] {
     finish(devices());

@@ -37,6 +37,8 @@ const char* wire_code(ErrorCode code) {
       return "cancelled";
     case ErrorCode::kInternal:
       return "internal";
+    case ErrorCode::kInUse:
+      return "in_use";
   }
   return "unknown";  // not an ErrorCode (a cast integer); -Wswitch keeps the list above complete
 }
