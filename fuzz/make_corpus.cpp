@@ -117,6 +117,11 @@ void rig_config_seeds(const fs::path& out) {
                   {"camera", {{"backend", "sim"}}},
                   {"light", {{"backend", "sim"}}}}
                  .dump());
+  // Every top-level key a config may have: a stated geometry, a named lock, the shared "sim" section.
+  json top_level = sim::sim_rig_config({{"scene", "patchwork"}});
+  top_level["geometry"] = {{"distance_mm", 2500}, {"pan_zero_deg", 1.5}, {"source", "tape measure"}};
+  top_level["lock"] = "bench-1";
+  write_text(d / "top_level.json", top_level.dump());
 }
 
 void vdobs_seeds(const fs::path& out) {

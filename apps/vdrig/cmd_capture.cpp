@@ -26,7 +26,7 @@ struct CaptureArgs {
   std::string resume;
   std::vector<int> redo_views;  // with --resume: complete views to shoot again
   std::string geometry;         // a calibration's views.json: its kinematic fit becomes the rig config's "geometry"
-  std::string runtime_dir = capture::default_runtime_dir().string();  // where rig locks live (as vdrigd's)
+  std::string runtime_dir;      // ignored: locks no longer live in a runtime folder (process_lock.hpp)
   double reserve_mb = 256;
   capture::RetryPolicy retry;  // device faults: attempts in all and the backoff between them
 };
@@ -41,11 +41,11 @@ Status run(const CaptureArgs& a) {
   if (a.retry.max_attempts < 1 || !(a.retry.initial_backoff_s >= 0) || !(a.retry.max_backoff_s >= 0))
     return make_error(ErrorCode::kInvalidArgument, "--device-attempts must be >= 1 and the backoffs >= 0");
   std::optional<capture::Session> session;
-  // One process drives a rig (process_lock.hpp: rig_lock_name); held until the capture returns, taken before the
-  // rig is built or a session folder is made for it.
+  // One process drives a rig: its devices lock themselves when it is built, a rig named by "lock" is locked here
+  // (process_lock.hpp); held until the capture returns, taken before a session folder is made for it.
   std::optional<capture::ProcessLock> rig_lock;
   auto lock_rig = [&](const nlohmann::json& rig_config) -> Status {
-    auto held = capture::lock_rig(rig_config, a.runtime_dir);
+    auto held = capture::lock_rig(rig_config);
     if (!held) return held.error();
     rig_lock = std::move(held.value());
     return Status::ok();
@@ -144,8 +144,8 @@ CommandRegistrar reg([](CLI::App& root) {
   cmd->add_option("--backoff-s", a->retry.initial_backoff_s, "wait before the first retry (doubles after each)")
       ->capture_default_str();
   cmd->add_option("--max-backoff-s", a->retry.max_backoff_s, "longest wait between retries")->capture_default_str();
-  cmd->add_option("--runtime-dir", a->runtime_dir, "folder of the rig locks (vdrigd's runtime dir)")
-      ->capture_default_str();
+  cmd->add_option("--runtime-dir", a->runtime_dir,
+                  "ignored, for older scripts: rigs are locked per device wherever the runtime folder is");
   cmd->callback([a] { finish(run(*a)); });
 });
 

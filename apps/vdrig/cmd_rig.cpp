@@ -7,6 +7,7 @@
 #include "vdrig/capture/process_lock.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/core/json_text.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -18,7 +19,7 @@ constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 
 struct RigArgs {
   std::string config;
-  std::string runtime_dir = capture::default_runtime_dir().string();
+  std::string runtime_dir;  // ignored: locks no longer live in a runtime folder (process_lock.hpp)
   bool self_test = false;
   double pan_deg = 0.0, tilt_deg = 0.0;
   double exposure_s = 0.01, gain = 1.0;
@@ -41,7 +42,7 @@ Result<OpenRig> open_rig(const RigArgs& a) {
   auto config = read_config(a.config);
   if (!config) return config.error();
   OpenRig open;
-  auto lock = capture::lock_rig(config.value(), a.runtime_dir);
+  auto lock = capture::lock_rig(config.value());
   if (!lock) return lock.error();
   open.lock = std::move(lock.value());
   auto rig = pipeline::full_registry().make_rig(config.value());
@@ -64,12 +65,15 @@ Status devices() {
 }
 
 Status check(const RigArgs& a) {
-  auto config = read_config(a.config);
-  if (!config) return config.error();
-  auto report = rig::check_rig_config(config.value(), pipeline::full_registry());
-  // The simulator's section is its module's to read.
-  if (config->is_object() && config->contains("sim"))
-    if (auto sim = sim::SimConfig::from_json((*config)["sim"]); !sim) report.problems.push_back(sim.error().message);
+  // Read as text here, not with read_config: a repeated key is one more problem to list with the others, not a
+  // reason to stop before them.
+  auto text = read_regular_file(a.config, kMaxJsonFileBytes);
+  if (!text) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + text.error().message);
+  auto parsed = parse_json_text(text.value(), a.config);
+  if (!parsed) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + parsed.error().message);
+  const json& config = parsed->value;
+  auto report = rig::check_rig_config(config, pipeline::full_registry());
+  report.problems.insert(report.problems.begin(), parsed->duplicate_keys.begin(), parsed->duplicate_keys.end());
   std::printf("effective settings:\n%s\n", report.effective.dump(2).c_str());
   if (!report.problems.empty()) {
     std::printf("%zu problem(s):\n", report.problems.size());
@@ -141,8 +145,8 @@ CommandRegistrar reg([](CLI::App& root) {
       cmd->add_option("CONFIG", a->config, "rig config JSON file")->required();
     else
       cmd->add_option("--rig", a->config, "rig config JSON file")->required();
-    cmd->add_option("--runtime-dir", a->runtime_dir, "folder of the rig locks (vdrigd's runtime dir)")
-        ->capture_default_str();
+    cmd->add_option("--runtime-dir", a->runtime_dir,
+                    "ignored, for older scripts: rigs are locked per device wherever the runtime folder is");
   };
   rig->add_subcommand("devices", "list cameras, serial ports and GPIO chips found on this machine")->callback([] {
     finish(devices());

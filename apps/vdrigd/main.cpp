@@ -107,7 +107,8 @@ int main(int argc, char** argv) {
   capture::Daemon daemon(config);
   if (const Status s = daemon.start(); !s) {
     logger->error("{}", s.describe());
-    return s.error().code == ErrorCode::kInvalidArgument ? 2 : 1;
+    // A rig another process drives is a start refused, as a bad config is: no point in restarting it as is.
+    return s.error().code == ErrorCode::kInvalidArgument || s.error().code == ErrorCode::kInUse ? 2 : 1;
   }
   g_daemon = &daemon;
   struct sigaction sa {};

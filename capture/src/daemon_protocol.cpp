@@ -6,6 +6,7 @@
 
 #include "session_runner.hpp"
 #include "vdrig/core/geometry.hpp"
+#include "vdrig/core/json_text.hpp"
 #include "vdrig/core/settings.hpp"
 
 namespace vdrig::capture {
@@ -36,6 +37,8 @@ const char* wire_code(ErrorCode code) {
       return "cancelled";
     case ErrorCode::kInternal:
       return "internal";
+    case ErrorCode::kInUse:
+      return "in_use";
   }
   return "unknown";  // not an ErrorCode (a cast integer); -Wswitch keeps the list above complete
 }
@@ -139,8 +142,11 @@ std::optional<json> Protocol::answer(const std::string& line, bool& subscribed) 
 Reply Protocol::answer_request(std::string_view line, json& id, bool& subscribed) {
   if (line.empty()) return RequestError{wire::kBadRequest, "empty request"};
   if (!valid_utf8(line)) return RequestError{wire::kBadRequest, "request is not valid UTF-8"};
-  const json request = json::parse(line, nullptr, false);
-  if (request.is_discarded()) return RequestError{wire::kBadRequest, "request is not valid JSON"};
+  auto parsed = parse_json_text(line, "request");
+  if (!parsed) return RequestError{wire::kBadRequest, "request is not valid JSON"};
+  // A request that says a thing twice (a start's rig config naming its stage twice) has no one meaning.
+  if (!parsed->duplicate_keys.empty()) return RequestError{wire::kBadRequest, parsed->duplicate_keys.front()};
+  const json& request = parsed->value;
   if (!request.is_object()) return RequestError{wire::kBadRequest, "request must be a JSON object"};
   if (const auto it = request.find("id"); it != request.end()) {
     if (!it->is_string() && !it->is_number_integer())

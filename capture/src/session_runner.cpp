@@ -76,7 +76,7 @@ Status SessionRunner::ensure_rig(const json& rig_config, bool must_match) {
   if (rig_ && (!must_match || rig_config == rig_config_in_use_)) return Status::ok();
   rig_.reset();
   rig_lock_.reset();
-  auto lock = lock_rig(rig_config, config_.runtime_dir);
+  auto lock = lock_rig(rig_config);
   if (!lock) return lock.error();
   auto built = config_.make_rig(rig_config);
   if (!built) return built.error();

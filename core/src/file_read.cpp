@@ -7,6 +7,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include "vdrig/core/json_text.hpp"
+
 namespace vdrig {
 namespace fs = std::filesystem;
 
@@ -81,17 +83,11 @@ Result<std::string> read_regular_file(const fs::path& path, std::size_t max_byte
 Result<nlohmann::json> read_json_file(const fs::path& path) {
   auto bytes = read_regular_file(path, kMaxJsonFileBytes);
   if (!bytes) return bytes.error();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(bytes.value());
-  } catch (const nlohmann::json::exception& e) {
-    // Syntax errors are parse_error ("[json.exception.parse_error.101] parse error at line L, column C: ..."), but a
-    // number too large for a double ("1e999") is out_of_range.406: both are a corrupt file.
-    return make_error(ErrorCode::kCorrupt, path.string() + ": not valid JSON: " + e.what());
-  }
-  if (!j.is_object())
+  auto j = parse_json_strict(bytes.value(), path.string());
+  if (!j) return j.error();
+  if (!j->is_object())
     return make_error(ErrorCode::kCorrupt,
-                      path.string() + ": expected a JSON object at the top level, found " + j.type_name());
+                      path.string() + ": expected a JSON object at the top level, found " + j->type_name());
   return j;
 }
 

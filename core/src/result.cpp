@@ -26,6 +26,8 @@ const char* to_string(ErrorCode code) {
       return "cancelled";
     case ErrorCode::kInternal:
       return "internal error";
+    case ErrorCode::kInUse:
+      return "in use";
   }
   return "unknown error";
 }

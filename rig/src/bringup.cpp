@@ -190,10 +190,8 @@ std::string join(const std::vector<std::string>& names) {
 ConfigCheck check_rig_config(const json& config, const BackendRegistry& registry) {
   ConfigCheck check;
   check.effective = json::object();
-  if (!config.is_object()) {
-    check.problems.push_back("a rig config is a JSON object with \"stage\", \"camera\" and optionally \"light\"");
-    return check;
-  }
+  check.problems = registry.top_level_problems(config);
+  if (!config.is_object()) return check;
   const std::pair<const char*, std::vector<std::string>> kinds[] = {{"stage", registry.stage_backends()},
                                                                     {"camera", registry.camera_backends()},
                                                                     {"light", registry.light_backends()}};
@@ -215,16 +213,21 @@ ConfigCheck check_rig_config(const json& config, const BackendRegistry& registry
       continue;
     }
     auto effective = parse_section(kind, backend, section, check.problems);
+    if (!effective) {
+      // A backend outside rig (the simulator) checks its section through the registry.
+      if (auto checked = registry.check_device_section(kind, backend, section)) {
+        if (*checked)
+          effective = checked->value();
+        else
+          check.problems.push_back(checked->error().message);
+      }
+    }
     check.effective[kind] = effective ? *effective : section;
   }
-  if (config.contains("geometry")) {
-    auto g = geometry_from_section(config["geometry"]);
-    if (g) {
+  // Reported with the top level's problems when not valid.
+  if (config.contains("geometry"))
+    if (auto g = geometry_from_section(config["geometry"]))
       check.effective["geometry"] = geometry_section(g.value(), config["geometry"].value("source", ""));
-    } else {
-      check.problems.push_back(g.error().message);
-    }
-  }
   return check;
 }
 

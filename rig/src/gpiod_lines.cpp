@@ -1,23 +1,57 @@
 #include "gpiod_lines.hpp"
 
+#include <fcntl.h>
 #include <gpiod.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+#include <map>
+#include <mutex>
+
+#include "vdrig/core/process_lock.hpp"
 
 namespace vdrig::rig {
 
 Result<std::shared_ptr<GpioChip>> GpioChip::open(const std::string& name) {
+  // The chips this process has open, by node: a stage and a light on one chip share it, and so its lock (a second
+  // flock of the node from this process would refuse the light).
+  static std::mutex open_chips_mutex;
+  static std::map<std::string, std::weak_ptr<GpioChip>> open_chips;
   gpiod_chip* chip = gpiod_chip_open_lookup(name.c_str());
   if (!chip) {
     const int err = errno;
     return make_error(err == ENOENT || err == ENODEV ? ErrorCode::kNotFound : ErrorCode::kDevice,
                       "gpio chip \"" + name + "\": " + std::strerror(err));
   }
-  return std::shared_ptr<GpioChip>(new GpioChip(chip, name));
+  const std::string node = std::string("/dev/") + gpiod_chip_name(chip);
+  std::lock_guard lock(open_chips_mutex);
+  if (auto shared = open_chips[node].lock()) {
+    gpiod_chip_close(chip);
+    return shared;
+  }
+  // libgpiod 1.6 does not expose the chip's descriptor: the node is opened once more to be locked (flock conflicts
+  // between open files of one node, so it excludes other processes all the same).
+  const int lock_fd = ::open(node.c_str(), O_RDONLY | O_CLOEXEC);
+  if (lock_fd < 0) {
+    const int err = errno;
+    gpiod_chip_close(chip);
+    return make_error(ErrorCode::kDevice, "gpio chip " + node + ": " + std::strerror(err));
+  }
+  if (Status locked = lock_open_file(lock_fd, "gpio chip " + node); !locked) {
+    ::close(lock_fd);
+    gpiod_chip_close(chip);
+    return locked.error();
+  }
+  std::shared_ptr<GpioChip> opened(new GpioChip(chip, name, lock_fd));
+  open_chips[node] = opened;
+  return opened;
 }
 
-GpioChip::~GpioChip() { gpiod_chip_close(chip_); }
+GpioChip::~GpioChip() {
+  gpiod_chip_close(chip_);
+  ::close(lock_fd_);  // releases the chip's lock
+}
 
 int GpioChip::num_lines() const { return static_cast<int>(gpiod_chip_num_lines(chip_)); }
 

@@ -14,7 +14,9 @@ namespace vdrig::rig {
 
 class GpioChip {
  public:
-  /// Opens a chip by name ("gpiochip0"), path ("/dev/gpiochip0"), label or number (gpiod_chip_open_lookup).
+  /// Opens a chip by name ("gpiochip0"), path ("/dev/gpiochip0"), label or number (gpiod_chip_open_lookup), and
+  /// locks its node for this process (core/process_lock.hpp: kInUse naming the PID of another process holding it).
+  /// Opened again in this process while open, it is the same chip.
   static Result<std::shared_ptr<GpioChip>> open(const std::string& name);
   ~GpioChip();
   GpioChip(const GpioChip&) = delete;
@@ -24,9 +26,10 @@ class GpioChip {
   gpiod_chip* raw() const { return chip_; }
 
  private:
-  GpioChip(gpiod_chip* chip, std::string name) : chip_(chip), name_(std::move(name)) {}
+  GpioChip(gpiod_chip* chip, std::string name, int lock_fd) : chip_(chip), name_(std::move(name)), lock_fd_(lock_fd) {}
   gpiod_chip* chip_;
   std::string name_;
+  int lock_fd_;  // the chip's node, open only to hold its flock
 };
 
 /// One requested line. Values are logical (active_low is applied by the kernel): true = active.

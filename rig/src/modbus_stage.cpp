@@ -148,6 +148,7 @@ Status ModbusStage::ensure_connected() {
     modbus_set_error_recovery(ctx_, MODBUS_ERROR_RECOVERY_NONE);
   }
   const std::string where = config_.rtu ? config_.device : config_.host + ":" + std::to_string(config_.port);
+  if (!config_.rtu) VDRIG_TRY(lock_network_drive());
   if (modbus_connect(ctx_) == -1) {
     const int err = errno;
     if (err == ETIMEDOUT)
@@ -155,8 +156,23 @@ Status ModbusStage::ensure_connected() {
     return make_error(ErrorCode::kDisconnected,
                       backend() + ": cannot connect to " + where + ": " + modbus_strerror(err));
   }
+  // A serial port is locked on its node, which exists only once opened; a network drive before a connection is made.
+  if (config_.rtu)
+    if (Status locked = lock_open_file(modbus_get_socket(ctx_), backend() + " serial port " + config_.device);
+        !locked) {
+      modbus_close(ctx_);
+      return locked;
+    }
   connected_ = true;
   log::get("rig")->info("{}: connected to {}", backend(), where);
+  return Status::ok();
+}
+
+Status ModbusStage::lock_network_drive() {
+  if (tcp_drive_lock_) return Status::ok();
+  auto lock = lock_device(backend() + " drive " + config_.host + ":" + std::to_string(config_.port));
+  if (!lock) return lock.error();
+  tcp_drive_lock_ = std::move(lock.value());
   return Status::ok();
 }
 

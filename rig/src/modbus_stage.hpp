@@ -12,6 +12,10 @@
 //         "pan" / "tilt": { "unit" (1..247, required), "counts_per_degree" (required, != 0; negative flips the
 //                           direction), "min_deg", "max_deg", "max_speed_deg_s", "accel_deg_s2",
 //                           "continuous" (false), "in_position_window_deg" (0.05) }
+// Locks: the stage locks its drive when it first connects, so that one process drives it whatever runtime folder
+// each was started with (core/process_lock.hpp): modbus-rtu flocks the opened serial port itself (again after every
+// reconnect), modbus-tcp holds a lock file named from host and port in device_lock_dir() for the stage's lifetime.
+// Another process's stage on the same drive fails to connect with kInUse naming that process's PID.
 // Errors: a drive fault, a refused command or a position outside the move's span (a word-order mismatch) is kDevice
 // naming the axis, its position and the drive's codes; no answer within the timeout (after retries) is kTimeout; a
 // lost link is kDisconnected and the next call reconnects. Every failure of move_to/home stops both drives.
@@ -22,9 +26,11 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "modbus_map.hpp"
+#include "vdrig/core/process_lock.hpp"
 #include "vdrig/rig/devices.hpp"
 
 typedef struct _modbus modbus_t;  // libmodbus stays private to the .cpp
@@ -113,9 +119,13 @@ class ModbusStage final : public PanTiltStage {
 
   ModbusStageConfig config_;
   std::mutex mutex_;  // one request at a time on the link; stop() may come from another thread
+  /// modbus-tcp: takes the drive's lock file once, before the first connection (above, "Locks").
+  Status lock_network_drive();
+
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;
-  std::atomic<bool> stop_requested_{false};  // stop() during a move/home: the wait ends with kCancelled
+  std::optional<ProcessLock> tcp_drive_lock_;  // modbus-tcp: held from the first connect to the stage's end
+  std::atomic<bool> stop_requested_{false};    // stop() during a move/home: the wait ends with kCancelled
 };
 
 }  // namespace vdrig::rig

@@ -346,9 +346,19 @@ Result<std::shared_ptr<SimWorld>> shared_world(rig::RigContext& ctx) {
   return world;
 }
 
+/// A simulated device's own section holds only "backend": everything the simulator reads is in the shared "sim"
+/// section, so any other key there is a mistake (a stage setting meant for "sim"."stage", say).
+Result<json> check_device_section(const std::string& kind, const json& section) {
+  Settings s(section, kind + " sim", {"backend"});
+  s.reject_unknown(std::vector<std::string>{});
+  if (!s.is_valid(nullptr)) return s.error();
+  return section;
+}
+
 template <typename Device, typename Impl>
-rig::Factory<Device> factory() {
-  return [](const json&, rig::RigContext& ctx) -> Result<std::unique_ptr<Device>> {
+rig::Factory<Device> factory(const std::string& kind) {
+  return [kind](const json& section, rig::RigContext& ctx) -> Result<std::unique_ptr<Device>> {
+    if (auto checked = check_device_section(kind, section); !checked) return checked.error();
     auto world = shared_world(ctx);
     if (!world) return world.error();
     return std::unique_ptr<Device>(std::make_unique<Impl>(world.value()));
@@ -357,20 +367,32 @@ rig::Factory<Device> factory() {
 
 }  // namespace
 
+rig::BackendSpec backend_spec(const std::string& kind) {
+  return {{"sim"}, [kind](const json& section) { return check_device_section(kind, section); }};
+}
+
 void register_backends(rig::BackendRegistry& registry) {
-  registry.add_stage("sim", factory<rig::PanTiltStage, SimStage>());
-  registry.add_camera("sim", [](const json&, rig::RigContext& ctx) -> Result<std::unique_ptr<rig::Camera>> {
-    auto world = shared_world(ctx);
-    if (!world) return world.error();
-    // Paired with another backend's stage, the camera follows that stage (registry.cpp: "rig.stage").
-    rig::PanTiltStage* follow = nullptr;
-    if (auto it = ctx.shared.find("rig.stage"); it != ctx.shared.end()) {
-      auto* stage = static_cast<rig::PanTiltStage*>(it->second.get());
-      if (stage && stage->backend() != "sim") follow = stage;
-    }
-    return std::unique_ptr<rig::Camera>(std::make_unique<SimCamera>(world.value(), follow));
+  registry.add_section("sim", [](const json& section) -> Status {
+    auto config = SimConfig::from_json(section);
+    return config ? Status::ok() : Status(config.error());
   });
-  registry.add_light("sim", factory<rig::Light, SimLight>());
+  registry.add_stage("sim", factory<rig::PanTiltStage, SimStage>("stage"), backend_spec("stage"));
+  registry.add_camera(
+      "sim",
+      [](const json& section, rig::RigContext& ctx) -> Result<std::unique_ptr<rig::Camera>> {
+        if (auto checked = check_device_section("camera", section); !checked) return checked.error();
+        auto world = shared_world(ctx);
+        if (!world) return world.error();
+        // Paired with another backend's stage, the camera follows that stage (registry.cpp: "rig.stage").
+        rig::PanTiltStage* follow = nullptr;
+        if (auto it = ctx.shared.find("rig.stage"); it != ctx.shared.end()) {
+          auto* stage = static_cast<rig::PanTiltStage*>(it->second.get());
+          if (stage && stage->backend() != "sim") follow = stage;
+        }
+        return std::unique_ptr<rig::Camera>(std::make_unique<SimCamera>(world.value(), follow));
+      },
+      backend_spec("camera"));
+  registry.add_light("sim", factory<rig::Light, SimLight>("light"), backend_spec("light"));
 }
 
 json sim_rig_config(const json& sim_section) {

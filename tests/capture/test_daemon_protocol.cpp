@@ -374,10 +374,10 @@ std::set<std::string> documented_error_codes() {
 
 // One wire code per ErrorCode, distinct and snake_case, and the protocol document lists exactly the codes sent.
 TEST(WireCodes, EveryErrorCodeHasADistinctSnakeCaseCodeAndTheDocsListExactlyTheCodesSent) {
-  const ErrorCode all[] = {ErrorCode::kIo,           ErrorCode::kCorrupt, ErrorCode::kInvalidArgument,
-                           ErrorCode::kNotFound,     ErrorCode::kDevice,  ErrorCode::kTimeout,
-                           ErrorCode::kDisconnected, ErrorCode::kNoSpace, ErrorCode::kUnsupported,
-                           ErrorCode::kCancelled,    ErrorCode::kInternal};
+  const ErrorCode all[] = {ErrorCode::kIo,           ErrorCode::kCorrupt,  ErrorCode::kInvalidArgument,
+                           ErrorCode::kNotFound,     ErrorCode::kDevice,   ErrorCode::kTimeout,
+                           ErrorCode::kDisconnected, ErrorCode::kNoSpace,  ErrorCode::kUnsupported,
+                           ErrorCode::kCancelled,    ErrorCode::kInternal, ErrorCode::kInUse};
   // The list above is every ErrorCode: the values are 0..N-1 and N itself is not one (wire_code's fallback).
   for (size_t k = 0; k < std::size(all); ++k) EXPECT_EQ(static_cast<size_t>(all[k]), k);
   EXPECT_STREQ(wire_code(static_cast<ErrorCode>(std::size(all))), "unknown") << "a new ErrorCode: add it here";

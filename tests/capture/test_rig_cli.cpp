@@ -1,6 +1,7 @@
 // `vdrig rig ...` and `vdrig capture` as a user runs them, against the independent Modbus peer
 // (tests/rig/modbus_drive_peer.py, python3-pymodbus) with the simulated camera.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "test_support.hpp"
 #include "vdrig/test/modbus_peer.hpp"
@@ -83,6 +84,63 @@ TEST_F(RigCli, CheckListsEveryProblemAtOnce) {
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
   for (const char* problem : {"host", "word_order", "32-bit profile velocity", "unknown camera backend"})
     EXPECT_NE(r.out.find(problem), std::string::npos) << problem << " not reported:\n" << r.out;
+}
+
+// Issue 23: misspelt top-level keys, a "lock" that is not a name, unknown keys in the simulator's device sections
+// and a repeated key all passed as "config valid". Each is now a problem, all listed in one run.
+TEST_F(RigCli, CheckNamesMisspeltTopLevelKeysAndRepeatedKeys) {
+  json config = peer_rig_config(502);
+  config["geomtry"] = {{"distance_mm", 2000}};
+  config["ligth"] = {{"backend", "sim"}};
+  config["simm"] = {{"scene", "checkerboard"}};
+  config["lock"] = 5;
+  config["camera"]["exposure_s"] = 0.01;  // the sim camera's section holds only its backend
+  std::string text = config.dump(2);
+  const std::string host = "\"host\": \"127.0.0.1\"";
+  ASSERT_NE(text.find(host), std::string::npos) << text;
+  text.replace(text.find(host), host.size(), host + ",\n    \"host\": \"10.0.0.9\"");
+  testing::write_text(rig_file_, text);
+  const auto r = vdrig({"rig", "check", rig_file_.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_EQ(r.out.find("config valid"), std::string::npos) << r.out;
+  for (const char* problem :
+       {"unknown top-level key \"geomtry\"", "unknown top-level key \"ligth\"", "unknown top-level key \"simm\"",
+        "\"lock\" must be", "unknown setting \"exposure_s\"", "duplicate key \"host\" in stage"})
+    EXPECT_NE(r.out.find(problem), std::string::npos) << problem << " not reported:\n" << r.out;
+  // A command that drives the rig refuses the file outright, naming the repeated key.
+  const auto position = vdrig({"rig", "position", "--rig", rig_file_.string()});
+  EXPECT_EQ(position.exit_code, 2) << position.out << position.err;
+  EXPECT_NE(position.err.find("duplicate key \"host\" in stage"), std::string::npos) << position.err;
+}
+
+// Issue 23: the rig lock lived in the runtime folder, so a vdrigd or CLI started with another one drove the same
+// drive at once. Held here (as a vdrigd holds its rig), the drive refuses both, naming this process.
+TEST_F(RigCli, ADriveHeldByOneProcessRefusesOthersWhateverTheirRuntimeFolder) {
+  start_peer();
+  if (IsSkipped()) return;
+  rig::BackendRegistry registry;
+  rig::register_hardware_backends(registry);
+  sim::register_backends(registry);
+  auto held = registry.make_rig(peer_rig_config(peer_->port()));
+  ASSERT_TRUE(held) << held.error().describe();
+  const std::string by_us = "is in use by PID " + std::to_string(::getpid());
+  const std::string drive = "127.0.0.1:" + std::to_string(peer_->port());
+
+  const auto cli = vdrig({"rig", "position", "--rig", rig_file_.string()});  // the default runtime folder
+  EXPECT_EQ(cli.exit_code, 1) << cli.out << cli.err;
+  EXPECT_NE(cli.err.find(drive + " " + by_us), std::string::npos) << cli.err;
+
+  const auto daemon = testing::run_process(
+      {testing::vdrigd_exe(), "--runtime-dir", (dir_.path() / "other-run").string(), "--sessions-dir",
+       (dir_.path() / "sessions").string(), "--rig", rig_file_.string(), "--log-level", "warn"},
+      {10.0});
+  EXPECT_FALSE(daemon.timed_out) << "vdrigd served a drive another process drives";
+  EXPECT_EQ(daemon.exit_code, 2) << daemon.out << daemon.err;
+  EXPECT_NE(daemon.err.find(drive + " " + by_us), std::string::npos) << daemon.err;
+
+  held = make_error(ErrorCode::kCancelled, "released");  // the rig's end frees the drive
+  const auto again = vdrig({"rig", "position", "--rig", rig_file_.string(), "--runtime-dir", runtime_dir_});
+  EXPECT_EQ(again.exit_code, 0) << again.out << again.err;
 }
 
 TEST_F(RigCli, CheckPrintsEffectiveSettingsWithDefaultsAndRegisterMap) {

@@ -28,6 +28,23 @@ TEST_F(FileRead, JsonFileReadsAnObject) {
   EXPECT_EQ((*j)["x"], 1);
 }
 
+// nlohmann::json keeps the last of a repeated key without a word: a rig config setting "port" twice would silently
+// drive the second. Every repeated key is refused, named with the path of its object.
+TEST_F(FileRead, JsonFileWithARepeatedKeyIsRefusedNamingEveryKeyAndItsPath) {
+  write(dir_ / "dup.json", R"({"stage": {"backend": "modbus-tcp", "port": 502, "pan": {"unit": 1, "unit": 2},
+                               "port": 503},
+                              "list": [{"a": 1}, {"b": 1, "b": 2}], "stage": {}})");
+  auto j = read_json_file(dir_ / "dup.json");
+  ASSERT_FALSE(j) << "accepted: " << j->dump();
+  EXPECT_EQ(j.error().code, ErrorCode::kCorrupt);
+  for (const char* named : {"duplicate key \"port\" in stage", "duplicate key \"unit\" in stage.pan",
+                            "duplicate key \"b\" in list[1]", "duplicate key \"stage\" at the top level"})
+    EXPECT_NE(j.error().message.find(named), std::string::npos) << named << " not in: " << j.error().message;
+  // The same key in different objects is no repetition.
+  write(dir_ / "ok.json", R"({"pan": {"unit": 1}, "tilt": {"unit": 2}, "list": [{"unit": 3}, {"unit": 4}]})");
+  EXPECT_TRUE(read_json_file(dir_ / "ok.json"));
+}
+
 TEST_F(FileRead, DirectoryFifoAndMissingFileAreErrorsNotAbortsOrHangs) {
   fs::create_directories(dir_ / "dir.json");
   auto d = read_json_file(dir_ / "dir.json");

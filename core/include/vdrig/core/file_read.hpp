@@ -26,7 +26,8 @@ Result<std::string> read_regular_file(const std::filesystem::path& path, std::si
 
 /// A JSON document whose top level is an object (every JSON file vdrig reads is one), from a regular file of at
 /// most kMaxJsonFileBytes. Errors as read_regular_file(); kCorrupt for invalid JSON (the message gives the line
-/// and column) and for a top level that is not an object.
+/// and column), for a key repeated within one object (parse_json_strict: every one named with its path) and for a
+/// top level that is not an object.
 Result<nlohmann::json> read_json_file(const std::filesystem::path& path);
 
 }  // namespace vdrig

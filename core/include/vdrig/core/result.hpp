@@ -28,6 +28,7 @@ enum class ErrorCode {
   kUnsupported,      // a backend or feature not built in / not available here
   kCancelled,        // stopped on request (pause, abort, SIGTERM)
   kInternal,         // a bug surfaced as a value where aborting would lose data
+  kInUse,            // a device or rig another process holds (the message names its PID)
 };
 
 const char* to_string(ErrorCode code);

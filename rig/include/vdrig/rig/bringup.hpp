@@ -36,10 +36,10 @@ struct ConfigCheck {
   nlohmann::json effective;           // per section, the settings as the backend will use them (defaults filled in)
 };
 
-/// Validates every section of `config` against the backends of `registry` ("stage" and "camera" required,
-/// "light" optional, and "geometry" when present: rig::geometry_from_section), with the hardware backends' own parsers;
-/// a backend whose settings rig cannot parse without its device (the simulator's, checked by its module) is listed with
-/// its section as given.
+/// Validates all of `config` against the backends of `registry`: the top level (BackendRegistry::top_level_problems:
+/// unknown keys, "lock", "geometry", the shared sections such as "sim"), then each device section ("stage" and
+/// "camera" required, "light" optional) with the hardware backends' own parsers or the backend's BackendSpec::check.
+/// Every problem is listed, each naming its key. A backend that declares no check is listed with its section as given.
 ConfigCheck check_rig_config(const nlohmann::json& config, const BackendRegistry& registry);
 
 struct SelfTestOptions {

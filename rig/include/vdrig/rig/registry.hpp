@@ -6,13 +6,18 @@
 //   { "stage":  { "backend": "modbus-tcp", ... backend settings ... },
 //     "camera": { "backend": "v4l2", ... },
 //     "light":  { "backend": "gpio", ... },           (optional)
+//     "geometry": { ... },                            (optional, geometry_config.hpp)
+//     "lock": "bench-1",                              (optional, capture/process_lock.hpp)
 //     ...      sections shared by backends, e.g. "sim": { "scene": "patchwork", ... } }
+// The top level is validated like every section: a key that is none of these, nor a section a backend of the
+// registry declares, is an error (a misspelt "geomtry" would otherwise mean an ideal geometry).
 #pragma once
 
 #include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,23 +35,55 @@ struct RigContext {
 template <typename Device>
 using Factory = std::function<Result<std::unique_ptr<Device>>(const nlohmann::json& settings, RigContext& ctx)>;
 
+/// What a backend reads of a rig config besides building its device, declared when it is registered, so that a
+/// whole config is validated (`vdrig rig check`, make_rig) before any device is opened.
+struct BackendSpec {
+  /// Top-level sections the backend reads besides its own device section (the simulator's "sim"); each is
+  /// registered with add_section. A config may have such a section only when one of its devices reads it.
+  std::vector<std::string> sections;
+  /// Validates the device section ("backend" included) without opening the device: the settings as the backend
+  /// will use them, or kInvalidArgument naming every problem. Empty: only the factory validates, when it builds.
+  std::function<Result<nlohmann::json>(const nlohmann::json& section)> check;
+};
+
 class BackendRegistry {
  public:
-  void add_stage(const std::string& name, Factory<PanTiltStage> factory);
-  void add_camera(const std::string& name, Factory<Camera> factory);
-  void add_light(const std::string& name, Factory<Light> factory);
+  void add_stage(const std::string& name, Factory<PanTiltStage> factory, BackendSpec spec = {});
+  void add_camera(const std::string& name, Factory<Camera> factory, BackendSpec spec = {});
+  void add_light(const std::string& name, Factory<Light> factory, BackendSpec spec = {});
+  /// A top-level section shared by backends (the simulator's "sim") and how to validate it without a device.
+  void add_section(const std::string& name, std::function<Status(const nlohmann::json& section)> check);
 
   std::vector<std::string> stage_backends() const;
   std::vector<std::string> camera_backends() const;
   std::vector<std::string> light_backends() const;
 
-  /// Builds every device of the config. An unknown backend name is kInvalidArgument listing the known ones.
+  /// Every problem of the config's top level, each naming its key: a key that is neither one of the config's own
+  /// ("stage", "camera", "light", "geometry", "lock") nor a section declared by a backend; a declared section that
+  /// no backend of this config reads; a "lock" that is not a non-empty string; the problems of "geometry" and of
+  /// each shared section. The device sections are left to device_section_problems and the factories.
+  std::vector<std::string> top_level_problems(const nlohmann::json& config) const;
+  /// The result of the backend's BackendSpec::check for a device section of `kind` ("stage", "camera", "light"),
+  /// or nullopt when it declared none (or `backend` is unknown).
+  std::optional<Result<nlohmann::json>> check_device_section(const std::string& kind, const std::string& backend,
+                                                             const nlohmann::json& section) const;
+
+  /// Validates the top level (top_level_problems: kInvalidArgument naming every problem), then builds every device
+  /// of the config. An unknown backend name is kInvalidArgument listing the known ones.
   Result<Rig> make_rig(const nlohmann::json& config) const;
 
  private:
-  std::map<std::string, Factory<PanTiltStage>> stages_;
-  std::map<std::string, Factory<Camera>> cameras_;
-  std::map<std::string, Factory<Light>> lights_;
+  template <typename Device>
+  struct Entry {
+    Factory<Device> factory;
+    BackendSpec spec;
+  };
+  const BackendSpec* spec_of(const std::string& kind, const std::string& backend) const;
+
+  std::map<std::string, Entry<PanTiltStage>> stages_;
+  std::map<std::string, Entry<Camera>> cameras_;
+  std::map<std::string, Entry<Light>> lights_;
+  std::map<std::string, std::function<Status(const nlohmann::json&)>> sections_;
 };
 
 /// Registers the hardware backends compiled into this build (modbus-rtu, modbus-tcp, gpio-stepdir, v4l2,

@@ -1,7 +1,9 @@
 // The simulated rig: a PanTiltStage, a Camera and a Light behind the same interfaces as the hardware, sharing one
 // SimWorld (the platform's pose, the scene on it, the fixed camera). It is the default backend ("sim").
 //
-// Rig config section "sim" (edges in degrees, mm, seconds); every key is optional, unknown keys are rejected:
+// The simulated devices' own sections hold only "backend" ("stage": {"backend": "sim"}); what they simulate is in
+// the rig config's shared section "sim" (edges in degrees, mm, seconds); every key is optional, unknown keys are
+// rejected:
 //   { "scene": "patchwork", "distance_mm": 2500, "surface_offset_mm": [0, 0, 0],
 //     "pan_zero_deg": 0, "tilt_zero_deg": 0, "pan_axis_tilt_deg": [0, 0] (an imperfect rig, rig/kinematics.hpp: the
 //     stage reports encoder readings, the platform turns by the true angles), "samples_per_axis": 2,
@@ -86,7 +88,11 @@ struct SimWorld {
   ViewPose pose() const { return rig::surface_pose(config.geometry, position); }
 };
 
-/// Adds the "sim" stage, camera and light backends.
+/// What the simulated `kind` ("stage", "camera", "light") declares to the registry: it reads the shared "sim"
+/// section, and its own section holds only "backend" (any other key is rejected, naming it).
+rig::BackendSpec backend_spec(const std::string& kind);
+
+/// Adds the "sim" stage, camera and light backends, and the shared "sim" section (validated by SimConfig::from_json).
 void register_backends(rig::BackendRegistry& registry);
 
 /// A rig config that selects the simulator for every device, with the given "sim" section.
