@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "commands.hpp"
 #include "progress.hpp"
@@ -88,7 +89,8 @@ class Client {
     const bool too_many = code == "busy" && message.rfind("too many clients", 0) == 0;
     if (too_many || code == "permission_denied" || code == "idle_timeout")
       return make_error(ErrorCode::kDisconnected, "vdrigd refused the connection: " + message);
-    for (int c = 0; c <= static_cast<int>(ErrorCode::kInternal); ++c)
+    // Every ErrorCode, in order, until wire_code's fallback "unknown" (past the last one).
+    for (int c = 0; std::string(capture::wire_code(static_cast<ErrorCode>(c))) != "unknown"; ++c)
       if (code == capture::wire_code(static_cast<ErrorCode>(c))) return make_error(static_cast<ErrorCode>(c), message);
     return make_error(ErrorCode::kDevice, message);
   }
