@@ -272,7 +272,8 @@ TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
   EXPECT_EQ(refusal.value("code", ""), "busy") << refusal.dump();
   EXPECT_NE(refusal.value("error", "").find("too many clients of uid"), std::string::npos) << refusal.dump();
   ::close(fourth);
-  const auto cli = testing::run_process({testing::vdrig_cli(), "session", "status", "--runtime-dir", runtime_dir}, {20.0});
+  const auto cli =
+      testing::run_process({testing::vdrig_cli(), "session", "status", "--runtime-dir", runtime_dir}, {20.0});
   EXPECT_EQ(cli.exit_code, 1);
   EXPECT_NE(cli.err.find("refused the connection: too many clients"), std::string::npos) << cli.err;
   EXPECT_EQ(cli.err.find("device fault"), std::string::npos) << cli.err;
