@@ -502,16 +502,34 @@ PhongFit no_lobe_fit(const TexelObservations& obs, const PhongFitOptions& opt) {
 class LobeCountBic {
  public:
   LobeCountBic(const TexelObservations& obs, const PhongFitOptions& opt)
-      : n_(static_cast<int>(3 * obs.size())), shared_(opt.shared_shininess), fixed_(!opt.fixed_directions.empty()) {
+      : obs_(obs),
+        check_detection_(opt.significant_lobes_only && opt.fixed_directions.empty()),
+        n_(static_cast<int>(3 * obs.size())),
+        shared_(opt.shared_shininess),
+        fixed_(!opt.fixed_directions.empty()) {
     double sq = 0;
     for (size_t i = 0; i < obs.size(); ++i) sq += obs.radiance[i].cast<double>().squaredNorm();
     rms_observed_ = std::sqrt(sq / std::max(1, n_));
   }
+  /// The BIC of a k-lobe fit, or +inf when one of its lobes is not detected above the fit's noise
+  /// (phong_lobe_snr < kLobeDetectionSnr): such a lobe may lower the BIC by fitting a few noisy samples.
   double operator()(int lobes, const PhongFit& fit) const {
-    return phong_bic(2.0 * fit.cost, n_, phong_parameter_count(lobes, shared_, fixed_), rms_observed_);
+    const int parameters = phong_parameter_count(lobes, shared_, fixed_);
+    if (lobes > 0 && check_detection_) {
+      double sq = 0.0;
+      for (size_t i = 0; i < obs_.size(); ++i)
+        sq += (fit.params.evaluate(obs_.direction[i].cast<double>()) - obs_.radiance[i].cast<double>()).squaredNorm();
+      const double noise_rms = std::max(std::sqrt(sq / std::max(1, n_ - parameters)), 1e-6 * rms_observed_);
+      for (size_t k = 0; k < fit.params.lobes.size(); ++k)
+        if (phong_lobe_snr(obs_, fit.params.lobes[k], noise_rms) < kLobeDetectionSnr)
+          return std::numeric_limits<double>::infinity();
+    }
+    return phong_bic(2.0 * fit.cost, n_, parameters, rms_observed_);
   }
 
  private:
+  const TexelObservations& obs_;
+  bool check_detection_ = true;
   int n_;
   bool shared_, fixed_;
   double rms_observed_ = 0.0;
@@ -538,6 +556,15 @@ double phong_support_cap(const TexelObservations& obs, const Vec3d& direction, i
   };
   return std::min(cap(cosines[static_cast<size_t>(support - 1)], kLobeSupportLevel),
                   cap(cosines.front(), kLobePeakLevel));
+}
+
+double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {
+  double sq = 0.0;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const double c = lobe.direction.dot(obs.direction[i].cast<double>().normalized());
+    if (c > 0.0) sq += (lobe.ks * std::pow(c, lobe.shininess)).squaredNorm();
+  }
+  return noise_rms > 0.0 ? std::sqrt(sq) / noise_rms : std::numeric_limits<double>::infinity();
 }
 
 double phong_bic(double rss, int residuals, int parameters, double rms_observed) {

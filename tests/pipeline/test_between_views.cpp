@@ -1,7 +1,8 @@
 // A fitted map judged where the viewer looks, on the whole chain a rig runs: a sparse session of the simulated rig
-// with sensor noise (shot and read noise, 8-bit codes, an HDR merge of three exposures), its observation map, the Phong
-// fits as `vdrig fit` makes them, evaluated toward 600 directions spread over the hemisphere (between the views and
-// beyond the last ring) against the scene's true radiance (docs/models.md, "Between the samples").
+// with sensor noise (shot and read noise, 8-bit codes, an HDR merge of three exposures), the geometry calibrated from
+// the images' corner markers, its observation map, the Phong fits as `vdrig fit` makes them, evaluated toward 600
+// directions spread over the hemisphere (between the views and beyond the last ring) against the scene's true
+// radiance (docs/models.md, "Between the samples").
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -64,6 +65,15 @@ TEST(BetweenTheViews, ANoisySparseSessionOfADiffusePatchInventsNoHighlight) {
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
   ASSERT_TRUE(merge_session_hdr(session.value()));
+  // The geometry as a user gets it: each view's pose from the corner markers in its HDR image and the rig kinematics
+  // fitted to them (the intrinsics are the simulator's: a simulated session has no chessboard views of its own).
+  GeometryCalibrationOptions calibration;
+  calibration.camera = sim::SimConfig::from_json(req.rig_config["sim"]).value().camera;
+  auto calibrated = calibrate_session_geometry(session.value(), calibration);
+  ASSERT_TRUE(calibrated) << calibrated.error().describe();
+  auto geometry = session_geometry(session.value());
+  ASSERT_TRUE(geometry) << geometry.error().describe();
+  ASSERT_EQ(geometry->source, "calibrated");
   auto obs = build_session_obsmap(session.value(), 20, 20);
   ASSERT_TRUE(obs) << obs.error().describe();
   const sim::Scene scene = sim::make_scene("patchwork").value();
@@ -85,8 +95,9 @@ TEST(BetweenTheViews, ANoisySparseSessionOfADiffusePatchInventsNoHighlight) {
         "%s, red cloth, latlong:3 with sensor noise: at most %.2f %% brighter than the truth over 600 "
         "directions (%.1f %% without the support cap and the lobe-count choice)\n",
         model, 100 * excess, 100 * excess_before);
-    // Measured 0.30 % (a third of a code where the cloth is exposed at 100 codes); 6282 % without the rules.
-    EXPECT_LT(excess, 0.005) << model;
+    // Measured 0.44 % on the calibrated geometry (half a code where the cloth is exposed at 100 codes; 0.30 % on the
+    // simulator's true geometry); 93.7 % without the rules.
+    EXPECT_LT(excess, 0.006) << model;
     EXPECT_GT(excess_before, 0.05) << model;
   }
 }

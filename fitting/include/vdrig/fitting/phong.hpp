@@ -22,9 +22,9 @@
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
 //    observations show of it. Lobes held at fixed_directions are exempt: their direction comes from elsewhere (the
 //    lights estimated over the whole map), and with it Ks and m are measured on the lobe's flanks;
-//  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC; the lobe
-//  count
-//    is chosen among 0..K, so a diffuse texel gets no lobe.
+//  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC and stands
+//    above the fit's noise (phong_lobe_snr >= kLobeDetectionSnr); the lobe count is chosen among 0..K, so a diffuse
+//    texel gets no lobe.
 #pragma once
 
 #include <span>
@@ -111,6 +111,18 @@ struct PhongFit {
 /// Fits one texel with `options.lobes` lobes (0..lobes with significant_lobes_only, chosen by BIC). Needs at least
 /// (parameter count / 3 + 1) observations; otherwise returns a fit with Kd the mean and no lobe, converged = false.
 PhongFit fit_phong(const TexelObservations& obs, const PhongFitOptions& options);
+
+/// The signal-to-noise ratio at which a fitted lobe counts as detected (significant_lobes_only): what the lobe adds
+/// at the observed directions must stand this far above the fit's residual noise (phong_lobe_snr). The BIC alone lets
+/// a free lobe, which searches the whole hemisphere for the pair of samples it fits best, buy its parameters with a
+/// few noisy samples: on 8-bit observations of a Lambertian patch, 6 seeds in 10 left such lobes, up to 11 codes bright
+/// between the views (tests/fitting/test_between_samples.cpp, docs/models.md).
+inline constexpr double kLobeDetectionSnr = 20.0;
+
+/// A lobe's signal-to-noise ratio over `obs`: the root sum of squares of its contribution (ks cos^m, RGB) at the
+/// observed directions, over `noise_rms` (the RMS of one residual of the fit, per channel and observation). +inf for
+/// noise_rms 0.
+double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
 
 /// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
 /// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed, 3 with no lobe.
