@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
-#   ./vdrig.sh test   set up, build, and pass the tests (Release, then under ASan + UBSan, then the fuzz targets)
+#   ./vdrig.sh test   set up, build, and pass the tests (Release, the capture-only build, then under ASan + UBSan,
+#                     then the fuzz targets)
 # Other verbs: build, bench, results (regenerates docs/results.md), screenshots (regenerates docs/img/*.png),
 # format-check, fuzz (each fuzz target for VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go
 # to the demo (see: build/apps/vdrig demo --help).
@@ -69,6 +70,29 @@ run_fuzzers() {
   rm -rf "$work"
 }
 
+# The capture-only build (preset `capture`: a rig controller on a small board; docs/conventions.md, "Modules"):
+# vdrig and vdrigd run, and link no OpenGL, GLFW or Ceres.
+check_capture_build() {
+  local bin=build/capture/apps libraries linked
+  "$bin/vdrig" --help >/dev/null || return 1
+  "$bin/vdrig" rig check --help >/dev/null || return 1
+  "$bin/vdrigd/vdrigd" --help >/dev/null || return 1
+  # Everything loaded (ldd), and what the executables themselves link (readelf): GLFW, the GL entry points (libGL,
+  # libOpenGL, libEGL), Ceres and its glog/SuiteSparse must come in neither way. libGLX alone may: Debian's OpenCV
+  # core is built with OpenGL interop and pulls it in, but no vdrig executable may link it itself.
+  libraries=$(ldd "$bin/vdrig" "$bin/vdrigd/vdrigd") || return 1
+  linked=$(
+    grep -Ei 'lib(GL|OpenGL|EGL|glfw|ceres|glog|cholmod|spqr)[.-]' <<<"$libraries" || true
+    readelf -d "$bin/vdrig" "$bin/vdrigd/vdrigd" | grep NEEDED | grep -Ei 'lib(GL|OpenGL|GLX|EGL|glfw|ceres|glog)' || true
+  )
+  if [ -n "$linked" ]; then
+    echo "the capture build links what it must not:" >&2
+    echo "$linked" >&2
+    return 1
+  fi
+  echo "capture build: vdrig and vdrigd run, no OpenGL, GLFW or Ceres linked"
+}
+
 case "$verb" in
   demo)
     setup
@@ -79,6 +103,8 @@ case "$verb" in
     setup
     configure_and_build ci
     with_display ctest --preset ci
+    configure_and_build capture
+    check_capture_build
     configure_and_build asan
     export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0
     export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
@@ -124,7 +150,7 @@ case "$verb" in
     git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
     ;;
   *)
-    sed -n '2,7p' "$0"
+    sed -n '2,8p' "$0"
     exit 2
     ;;
 esac

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "synthetic_room.hpp"
+#include "vdrig/gl/context.hpp"
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/soft_lights.hpp"
 #include "vdrig/probe_gl/gpu_fusion.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
 
 using namespace vdrig;
 using namespace vdrig::probe;
@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 120;
   const int size = argc > 2 ? std::atoi(argv[2]) : 128;
   const int shrink = argc > 3 ? std::atoi(argv[3]) : 8;
-  auto ctx = viewer::GlContext::create(16, 16, false);
+  auto ctx = gl::Context::create(16, 16, false);
   if (!ctx) {
     std::fprintf(stderr, "no OpenGL context: %s\n", ctx.error().message.c_str());
     return 77;

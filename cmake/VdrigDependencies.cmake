@@ -1,18 +1,24 @@
 # Every dependency comes from Debian's packages (scripts/setup installs them).
 find_package(Threads REQUIRED)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d photo)
-find_package(Ceres REQUIRED)
 find_package(Eigen3 REQUIRED NO_MODULE)
 find_package(OpenEXR 3 REQUIRED)
 find_package(Imath REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(spdlog REQUIRED)
-find_package(glfw3 3.3 REQUIRED)
-find_package(glm REQUIRED)
-find_package(OpenGL REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
+# Switched off together with the modules that need them (VDRIG_WITH_CERES, VDRIG_WITH_GL; root CMakeLists.txt), so
+# a capture-only build neither needs nor links them.
+if(VDRIG_WITH_CERES)
+  find_package(Ceres REQUIRED)
+endif()
+if(VDRIG_WITH_GL)
+  find_package(glfw3 3.3 REQUIRED)
+  find_package(glm REQUIRED)
+  find_package(OpenGL REQUIRED)
+endif()
 
 if(VDRIG_BUILD_TESTS)
   find_package(GTest REQUIRED)

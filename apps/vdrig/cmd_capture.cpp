@@ -3,15 +3,13 @@
 
 #include "commands.hpp"
 #include "progress.hpp"
+#include "rig_backends.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/process_lock.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/pipeline/pipeline.hpp"
-#include "vdrig/sim/scene.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -32,7 +30,7 @@ struct CaptureArgs {
 };
 
 Status run(const CaptureArgs& a) {
-  auto registry = pipeline::full_registry();
+  auto registry = rig_backends();
   capture::CaptureOptions options;
   auto reserve = capture::disk_reserve_bytes_from_mib(a.reserve_mb);
   if (!reserve) return reserve.error();
@@ -67,7 +65,9 @@ Status run(const CaptureArgs& a) {
     if (a.out.empty()) return make_error(ErrorCode::kInvalidArgument, "--out DIR or --resume DIR is required");
     nlohmann::json rc;
     if (a.rig == "sim") {
-      rc = sim::sim_rig_config({{"scene", a.scene}});
+      auto simulated = simulated_rig_config(a.scene);
+      if (!simulated) return simulated.error();
+      rc = std::move(simulated.value());
     } else {
       auto file = read_json_file(a.rig);
       if (!file) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + file.error().message);
@@ -86,11 +86,11 @@ Status run(const CaptureArgs& a) {
     plan.scheme = a.scheme;
     plan.bracket = a.bracket;
     plan.stage = rig->stage->spec();
-    if (rc.contains("sim")) {
-      auto scene = sim::make_scene(rc["sim"].value("scene", "patchwork"));
-      if (!scene) return scene.error();
-      plan.surface_width_mm = scene->width_mm;
-      plan.surface_height_mm = scene->height_mm;
+    auto surface = simulated_surface_size(rc);
+    if (!surface) return surface.error();
+    if (surface.value()) {
+      plan.surface_width_mm = surface.value()->width_mm;
+      plan.surface_height_mm = surface.value()->height_mm;
     }
     auto manifest = capture::plan_manifest(plan);
     if (!manifest) return manifest.error();

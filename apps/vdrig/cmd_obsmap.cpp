@@ -55,8 +55,12 @@ Status run_build(const BuildArgs& a) {
     auto comm = cluster::world();
     if (!comm) return comm.error();
     if (comm.value()->rank() != 0) options.on_view = nullptr;
-    const Status built = cluster::build_session_obsmap_distributed(*comm.value(), session.value(), res->first,
-                                                                   res->second, out, options);
+    const auto build_part = [&](const fitting::ObsFileOptions& rows, const std::filesystem::path& part) {
+      pipeline::ObsMapBuildOptions mine = options;
+      mine.file = rows;
+      return pipeline::build_session_obsmap_file(session.value(), res->first, res->second, part, mine);
+    };
+    const Status built = cluster::build_obsmap_distributed(*comm.value(), res->second, file, out, build_part);
     progress.finish();
     VDRIG_TRY(built);
     if (comm.value()->rank() == 0) std::printf("wrote %s on %d MPI ranks\n", out.c_str(), comm.value()->size());

@@ -3,14 +3,13 @@
 #include <cstdio>
 
 #include "commands.hpp"
+#include "rig_backends.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/process_lock.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/json_text.hpp"
-#include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/rig/bringup.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -45,7 +44,7 @@ Result<OpenRig> open_rig(const RigArgs& a) {
   auto lock = capture::lock_rig(config.value());
   if (!lock) return lock.error();
   open.lock = std::move(lock.value());
-  auto rig = pipeline::full_registry().make_rig(config.value());
+  auto rig = rig_backends().make_rig(config.value());
   if (!rig) return rig.error();
   open.rig = std::move(rig.value());
   return open;
@@ -72,7 +71,7 @@ Status check(const RigArgs& a) {
   auto parsed = parse_json_text(text.value(), a.config);
   if (!parsed) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + parsed.error().message);
   const json& config = parsed->value;
-  auto report = rig::check_rig_config(config, pipeline::full_registry());
+  auto report = rig::check_rig_config(config, rig_backends());
   report.problems.insert(report.problems.begin(), parsed->duplicate_keys.begin(), parsed->duplicate_keys.end());
   std::printf("effective settings:\n%s\n", report.effective.dump(2).c_str());
   if (!report.problems.empty()) {

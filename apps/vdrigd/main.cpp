@@ -4,13 +4,11 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "rig_backends.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/pipeline/pipeline.hpp"
-#include "vdrig/sim/scene.hpp"
-#include "vdrig/sim/sim_rig.hpp"
 
 namespace {
 vdrig::capture::Daemon* g_daemon = nullptr;
@@ -33,7 +31,7 @@ int main(int argc, char** argv) {
   capture::RetryPolicy retry;
   app.add_option("--runtime-dir", runtime_dir, "folder of the control socket vdrigd.sock")->capture_default_str();
   app.add_option("--sessions-dir", sessions_dir, "folder holding the sessions")->required();
-  app.add_option("--rig", rig_file, "rig config JSON (default: the simulator)");
+  app.add_option("--rig", rig_file, "rig config JSON (default: the simulator, when built)");
   app.add_option("--scene", scene, "simulator scene (a built-in name or a scene FILE.json) when no --rig is given")
       ->capture_default_str();
   app.add_option("--geometry", geometry_file,
@@ -78,7 +76,12 @@ int main(int argc, char** argv) {
     }
     config.rig_config = std::move(file.value());
   } else {
-    config.rig_config = sim::sim_rig_config({{"scene", scene}});
+    auto simulated = app::simulated_rig_config(scene);
+    if (!simulated) {
+      logger->error("--rig: {}", simulated.error().message);
+      return 2;
+    }
+    config.rig_config = std::move(simulated.value());
   }
   if (!geometry_file.empty()) {
     auto fitted = capture::with_fitted_geometry(config.rig_config, geometry_file);
@@ -93,14 +96,14 @@ int main(int argc, char** argv) {
     logger->error("{}", g.error().message);
     return 2;
   }
-  auto registry = std::make_shared<rig::BackendRegistry>(pipeline::full_registry());
+  auto registry = std::make_shared<rig::BackendRegistry>(app::rig_backends());
   config.make_rig = [registry](const nlohmann::json& rc) { return registry->make_rig(rc); };
   config.describe_surface = [](capture::Manifest& m) {
-    if (!m.rig_config.contains("sim")) return;
-    auto s = sim::make_scene(m.rig_config["sim"].value("scene", "patchwork"));
-    if (s) {
-      m.surface_width_mm = s->width_mm;
-      m.surface_height_mm = s->height_mm;
+    // An unreadable scene fails make_rig, which reports it; the manifest keeps its defaults meanwhile.
+    auto surface = app::simulated_surface_size(m.rig_config);
+    if (surface && surface.value()) {
+      m.surface_width_mm = surface.value()->width_mm;
+      m.surface_height_mm = surface.value()->height_mm;
     }
   };
 

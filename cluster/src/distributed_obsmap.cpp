@@ -9,20 +9,20 @@
 namespace vdrig::cluster {
 namespace fs = std::filesystem;
 
-Status build_session_obsmap_distributed(Comm& comm, const capture::Session& session, int S, int T, const fs::path& path,
-                                        const pipeline::ObsMapBuildOptions& options) {
+Status build_obsmap_distributed(Comm& comm, int T, const fitting::ObsFileOptions& file, const fs::path& path,
+                                const ObsMapPartBuilder& build_part) {
   const int rank = comm.rank(), ranks = comm.size();
   auto part_path = [&](int r) { return fs::path(path.string() + fmt::format(".part-{}-of-{}", r, ranks)); };
-  pipeline::ObsMapBuildOptions mine = options;
-  const int tile = std::max(1, options.file.tile_size);
+  fitting::ObsFileOptions mine = file;
+  const int tile = std::max(1, file.tile_size);
   const int rows = (T + tile - 1) / tile;
-  mine.file.first_tile_row = static_cast<int>(static_cast<long long>(rows) * rank / ranks);
-  mine.file.end_tile_row = static_cast<int>(static_cast<long long>(rows) * (rank + 1) / ranks);
+  mine.first_tile_row = static_cast<int>(static_cast<long long>(rows) * rank / ranks);
+  mine.end_tile_row = static_cast<int>(static_cast<long long>(rows) * (rank + 1) / ranks);
   auto logger = log::get("cluster");
   const auto start = std::chrono::steady_clock::now();
-  VDRIG_TRY(pipeline::build_session_obsmap_file(session, S, T, part_path(rank), mine));
-  logger->info("rank {}: tile rows [{}, {}) of {} written to {} in {:.2f} s", rank, mine.file.first_tile_row,
-               mine.file.end_tile_row, rows, part_path(rank).string(),
+  VDRIG_TRY(build_part(mine, part_path(rank)));
+  logger->info("rank {}: tile rows [{}, {}) of {} written to {} in {:.2f} s", rank, mine.first_tile_row,
+               mine.end_tile_row, rows, part_path(rank).string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   VDRIG_TRY(comm.barrier());
   Status assembled = Status::ok();

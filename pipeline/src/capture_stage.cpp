@@ -9,16 +9,9 @@
 
 namespace vdrig::pipeline {
 
-rig::BackendRegistry full_registry() {
-  rig::BackendRegistry registry;
-  sim::register_backends(registry);
-  rig::register_hardware_backends(registry);
-  return registry;
-}
-
 Result<capture::Session> capture_session(const CaptureRequest& req) {
   auto logger = log::get("capture");
-  auto rig = full_registry().make_rig(req.rig_config);
+  auto rig = sim::simulator_and_hardware_backends().make_rig(req.rig_config);
   if (!rig) return rig.error();
   auto samples = capture::generate(req.scheme);
   if (!samples) return samples.error();

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "vdrig/core/log.hpp"
-#include "vdrig/viewer/gl_program.hpp"
+#include "vdrig/gl/program.hpp"
 
 namespace vdrig::probe_gl {
 namespace {
@@ -157,7 +157,7 @@ Result<std::unique_ptr<GpuFusion>> GpuFusion::create(const std::vector<probe::Pr
       "#version 330 core\nuniform float u_angular;  // P\nuniform float u_resolution;  // Q\n" +
       exponent_glsl("angular_term", "u_angular", options.angular_exponent) +
       exponent_glsl("resolution_term", "u_resolution", options.resolution_exponent) + kFragmentShader;
-  auto program = viewer::link_program(viewer::kFullScreenTriangleVertexShader, fragment, "fusion shader");
+  auto program = gl::link_program(gl::kFullScreenTriangleVertexShader, fragment, "fusion shader");
   if (!program) return program.error();
   auto g = std::unique_ptr<GpuFusion>(new GpuFusion());
   g->size_ = cube_size;

@@ -395,6 +395,13 @@ void register_backends(rig::BackendRegistry& registry) {
   registry.add_light("sim", factory<rig::Light, SimLight>("light"), backend_spec("light"));
 }
 
+rig::BackendRegistry simulator_and_hardware_backends() {
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  rig::register_hardware_backends(registry);
+  return registry;
+}
+
 json sim_rig_config(const json& sim_section) {
   return {{"stage", {{"backend", "sim"}}},
           {"camera", {{"backend", "sim"}}},

@@ -11,12 +11,7 @@ namespace vdrig::capture {
 namespace {
 using nlohmann::json;
 
-rig::BackendRegistry full_registry() {
-  rig::BackendRegistry registry;
-  rig::register_hardware_backends(registry);
-  sim::register_backends(registry);
-  return registry;
-}
+rig::BackendRegistry full_registry() { return sim::simulator_and_hardware_backends(); }
 
 std::string joined(const std::vector<std::string>& problems) {
   std::string all;

@@ -21,12 +21,12 @@
 
 #include "synthetic_room.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/gl/context.hpp"
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/probe_json.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::probe {
 namespace {
@@ -99,7 +99,7 @@ constexpr int kPatchHalf = 3;
 class AnimateCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    if (!viewer::GlContext::create(8, 8, false)) return;
+    if (!gl::Context::create(8, 8, false)) return;
     gl_ = true;
     dir_ = new vdrig::test::TempDir("animate_cli");
     const fs::path d = dir_->path();

@@ -10,10 +10,10 @@
 #include <cstdio>
 
 #include "synthetic_room.hpp"
+#include "vdrig/gl/context.hpp"
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/soft_lights.hpp"
 #include "vdrig/probe_gl/gpu_fusion.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::probe_gl {
 namespace {
@@ -54,7 +54,7 @@ Difference compare(const CubeMap& gpu, const CubeMap& cpu) {
 class GpuFusionTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto ctx = viewer::GlContext::create(16, 16, false);
+    auto ctx = gl::Context::create(16, 16, false);
     if (!ctx) GTEST_SKIP() << "no OpenGL 3.3 context (run under xvfb-run): " << ctx.error().describe();
     ctx_ = std::move(ctx.value());
     for (const Vec3d& p : room_probe_positions()) probes_.push_back(render_room_probe(p, 64));
@@ -62,7 +62,7 @@ class GpuFusionTest : public ::testing::Test {
     // into the fused map (test_fusion's case).
     add_occluder(&probes_[0], Vec3d(1000, 700, -200).normalized(), 0.45, 300);
   }
-  std::unique_ptr<viewer::GlContext> ctx_;
+  std::unique_ptr<gl::Context> ctx_;
   std::vector<probe::Probe> probes_;
 };
 

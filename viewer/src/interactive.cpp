@@ -15,7 +15,7 @@
 
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/viewer/gl_program.hpp"
+#include "vdrig/gl/program.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"
 
 namespace vdrig::viewer {
@@ -164,7 +164,7 @@ out vec4 out_colour;
 uniform sampler2D u_image;
 void main() { out_colour = vec4(texture(u_image, v_uv).rgb, 1.0); }
 )";
-    auto program = link_program(vs, fs, "the viewer's image shader");
+    auto program = gl::link_program(vs, fs, "the viewer's image shader");
     // Fixed source: a failure is a broken invariant.
     VDRIG_CHECK(program.is_ok(), program.error().describe());
     program_ = program.value();

@@ -3,15 +3,13 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/gl.h>
 #include <GL/glext.h>
-#include <GLFW/glfw3.h>
 
 #include <algorithm>
 #include <cmath>
-#include <mutex>
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/core/log.hpp"
-#include "vdrig/viewer/gl_program.hpp"
+#include "vdrig/gl/program.hpp"
 
 namespace vdrig::viewer {
 namespace {
@@ -116,47 +114,12 @@ std::string model_glsl(const fitting::ParameterMap& map) {
          });
 }
 
-std::once_flag g_glfw_once;
-bool g_glfw_ok = false;
-
 }  // namespace
-
-Result<std::unique_ptr<GlContext>> GlContext::create(int width, int height, bool visible, const std::string& title) {
-  std::call_once(g_glfw_once, [] {
-    glfwSetErrorCallback([](int code, const char* msg) { log::get("viewer")->warn("GLFW error {}: {}", code, msg); });
-    g_glfw_ok = glfwInit() == GLFW_TRUE;
-  });
-  if (!g_glfw_ok)
-    return make_error(ErrorCode::kUnsupported,
-                      "cannot initialise GLFW (no display? run under xvfb-run, or set DISPLAY)");
-  glfwWindowHint(GLFW_VISIBLE, visible ? GLFW_TRUE : GLFW_FALSE);
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
-  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-  GLFWwindow* w = glfwCreateWindow(std::max(1, width), std::max(1, height), title.c_str(), nullptr, nullptr);
-  if (!w) return make_error(ErrorCode::kUnsupported, "cannot create an OpenGL 3.3 core context");
-  auto ctx = std::unique_ptr<GlContext>(new GlContext());
-  ctx->window_ = w;
-  ctx->make_current();
-  return ctx;
-}
-
-GlContext::~GlContext() {
-  if (window_) glfwDestroyWindow(window_);
-}
-
-void GlContext::make_current() { glfwMakeContextCurrent(window_); }
-
-std::string GlContext::renderer() const {
-  const auto* s = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-  return s ? s : "unknown";
-}
 
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
   const std::string model = model_glsl(map);
-  auto program = link_program(kFullScreenTriangleVertexShader, std::string(kFragmentHead) + model + kFragmentTail,
-                              "surface shader");
+  auto program = gl::link_program(gl::kFullScreenTriangleVertexShader,
+                                  std::string(kFragmentHead) + model + kFragmentTail, "surface shader");
   if (!program) return program.error();
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
   r->program_ = program.value();

@@ -1,4 +1,8 @@
-// A session's observation-map file built by the ranks of a Comm (MPI), split by tile rows (docs/scale.md).
+// An observation-map file built by the ranks of a Comm (MPI), split by tile rows (docs/scale.md).
+//
+// What a rank samples into its rows is the caller's ObsMapPartBuilder (for a session, `vdrig obsmap build --mpi`
+// passes pipeline::build_session_obsmap_file): cluster only splits, waits and assembles, so MPI ranks link neither
+// the pipeline nor, through it, OpenGL and the simulator.
 //
 // Rank r of N samples tile rows [r * R / N, (r + 1) * R / N) of the R rows: it reads every HDR view (the cost that
 // does not shrink with N) and writes only its rows, to its own part file beside the result
@@ -12,18 +16,22 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 
-#include "vdrig/capture/session.hpp"
 #include "vdrig/cluster/comm.hpp"
-#include "vdrig/pipeline/obsmap_stage.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 
 namespace vdrig::cluster {
 
-/// Every rank calls it with the same arguments; returns once `path` is complete (on every rank). options.file's
-/// tile rows are set here. The caller ends the job on an error (Comm::abort): a rank that failed never reaches the
-/// barrier the others wait at.
-Status build_session_obsmap_distributed(Comm& comm, const capture::Session& session, int texels_s, int texels_t,
-                                        const std::filesystem::path& path,
-                                        const pipeline::ObsMapBuildOptions& options = {});
+/// Writes one rank's part: the observation map's tile rows [rows.first_tile_row, rows.end_tile_row) to `part`
+/// (an ObsMapWriter created with `rows` as its ObsFileOptions).
+using ObsMapPartBuilder = std::function<Status(const fitting::ObsFileOptions& rows, const std::filesystem::path& part)>;
+
+/// Every rank calls it with the same arguments (`texels_t` the map's height in texels, `file` its options);
+/// `build_part` is called once on each rank with `file` narrowed to that rank's tile rows. Returns once `path` is
+/// complete (on every rank). The caller ends the job on an error (Comm::abort): a rank that failed never reaches
+/// the barrier the others wait at.
+Status build_obsmap_distributed(Comm& comm, int texels_t, const fitting::ObsFileOptions& file,
+                                const std::filesystem::path& path, const ObsMapPartBuilder& build_part);
 
 }  // namespace vdrig::cluster

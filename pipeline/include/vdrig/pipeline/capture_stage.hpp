@@ -8,12 +8,8 @@
 #include <vector>
 
 #include "vdrig/capture/session.hpp"
-#include "vdrig/rig/registry.hpp"
 
 namespace vdrig::pipeline {
-
-/// A registry with every backend of this build: the simulator and the hardware compiled in.
-rig::BackendRegistry full_registry();
 
 struct CaptureRequest {
   std::filesystem::path out_dir;
@@ -24,7 +20,8 @@ struct CaptureRequest {
   nlohmann::json manifest_extra = nlohmann::json::object();  // the manifest's `extra` section, e.g. who made it
 };
 
-/// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures.
+/// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures
+/// on a rig of sim::simulator_and_hardware_backends().
 /// The views are aimed with the config's "geometry" section when it has one (capture::geometry_from_rig_config),
 /// else, for a simulated rig, with the simulator's ground truth (unlike `vdrig capture`, which never plans with the
 /// hidden truth: this makes reference sessions whose views land exactly where planned), else the ideal rig. The

@@ -3,8 +3,8 @@
 // and the depth visibility of the CPU fusion (probe/fusion.hpp; probe::fuse_cube is the reference this matches).
 //
 // Why a module of its own: `probe` has no OpenGL dependency (its tests and the CLI's non-GL commands run without a
-// display), and the viewer renders parameter maps. probe_gl takes the viewer's GlContext (one GLFW/GL setup in
-// the project) and probe's data types, and adds only the fusion shader.
+// display), and the viewer renders parameter maps. probe_gl takes gl::Context (gl/context.hpp: the project's one
+// GLFW/GL setup, the viewer's too) and probe's data types, and adds only the fusion shader.
 //
 // How: one draw of a full-screen triangle into a 6 N x N RGBA32F framebuffer, the six faces side by side in
 // CubeFace order (+x -x +y -y +z -z, cube_map.hpp's convention). Per texel the fragment shader casts the centre ray
@@ -30,7 +30,7 @@ class GpuFusion {
   /// Source probes per draw (uniform arrays in the shader).
   static constexpr int kMaxProbes = 8;
 
-  /// Uploads the probes and compiles the shader; an OpenGL 3.3 context (viewer::GlContext) must be current and stay
+  /// Uploads the probes and compiles the shader; an OpenGL 3.3 context (gl::Context) must be current and stay
   /// current while this object is used. Errors: kInvalidArgument for what probe::validate_fusion_inputs rejects,
   /// more than kMaxProbes probes or cube_size outside [1, 2048]; kInternal when the driver rejects the shader or a
   /// texture; kUnsupported without float render targets.

@@ -95,6 +95,11 @@ rig::BackendSpec backend_spec(const std::string& kind);
 /// Adds the "sim" stage, camera and light backends, and the shared "sim" section (validated by SimConfig::from_json).
 void register_backends(rig::BackendRegistry& registry);
 
+/// A registry of every rig backend of this build: the simulator's ("sim") beside the hardware compiled into rig
+/// (rig::register_hardware_backends). What builds rigs that may be simulated uses it: the executables built with
+/// the simulator (apps/rig_backends/), the pipeline's reference sessions, the tests.
+rig::BackendRegistry simulator_and_hardware_backends();
+
 /// A rig config that selects the simulator for every device, with the given "sim" section.
 nlohmann::json sim_rig_config(const nlohmann::json& sim_section = nlohmann::json::object());
 

@@ -15,26 +15,12 @@
 #include "vdrig/core/camera.hpp"
 #include "vdrig/core/response.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
-
-struct GLFWwindow;
+#include "vdrig/gl/context.hpp"
 
 namespace vdrig::viewer {
 
-/// An OpenGL 3.3 core context from GLFW: an invisible window for headless rendering (needs an X display: Xvfb in
-/// CI), or a visible one for the interactive viewer. One per thread.
-class GlContext {
- public:
-  static Result<std::unique_ptr<GlContext>> create(int width, int height, bool visible,
-                                                   const std::string& title = "vdrig");
-  ~GlContext();
-  GLFWwindow* window() const { return window_; }
-  void make_current();
-  std::string renderer() const;  // GL_RENDERER string
-
- private:
-  GlContext() = default;
-  GLFWwindow* window_ = nullptr;
-};
+/// The OpenGL context every render needs (gl/context.hpp: the one GLFW/GL setup, shared with probe_gl).
+using GlContext = gl::Context;
 
 struct RenderSettings {
   int samples_per_axis = 2;  // antialiasing, as the simulator

@@ -1,10 +1,10 @@
-#include "vdrig/viewer/gl_program.hpp"
+#include "vdrig/gl/program.hpp"
 
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/gl.h>
 #include <GL/glext.h>
 
-namespace vdrig::viewer {
+namespace vdrig::gl {
 namespace {
 
 // The shader's name, or 0 with the driver's log in *log.
@@ -50,4 +50,4 @@ Result<unsigned> link_program(const std::string& vertex_source, const std::strin
   return make_error(ErrorCode::kInternal, what + ": link failed: " + buf);
 }
 
-}  // namespace vdrig::viewer
+}  // namespace vdrig::gl

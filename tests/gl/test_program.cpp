@@ -1,15 +1,15 @@
 // link_program: a working pair links into a program; a stage that does not compile, or a pair that does not link,
 // is kInternal naming the program and the failing step with the driver's log.
 #define GL_GLEXT_PROTOTYPES 1
-#include "vdrig/viewer/gl_program.hpp"
+#include "vdrig/gl/program.hpp"
 
 #include <GL/gl.h>
 #include <GL/glext.h>
 #include <gtest/gtest.h>
 
-#include "vdrig/viewer/surface_renderer.hpp"
+#include "vdrig/gl/context.hpp"
 
-namespace vdrig::viewer {
+namespace vdrig::gl {
 namespace {
 
 const char* kVertex = R"(#version 330 core
@@ -23,7 +23,7 @@ void main() { out_colour = vec4(v_uv, 0.0, 1.0); }
 )";
 
 TEST(GlProgram, LinksAGoodPairAndNamesTheFailingStageOtherwise) {
-  auto ctx = GlContext::create(16, 16, false);
+  auto ctx = Context::create(16, 16, false);
   if (!ctx) GTEST_SKIP() << "no OpenGL display: " << ctx.error().message;
 
   auto good = link_program(kVertex, kFragment, "test shader");
@@ -52,4 +52,4 @@ TEST(GlProgram, LinksAGoodPairAndNamesTheFailingStageOtherwise) {
 }
 
 }  // namespace
-}  // namespace vdrig::viewer
+}  // namespace vdrig::gl

@@ -6,7 +6,7 @@
 
 #include "vdrig/core/result.hpp"
 
-namespace vdrig::viewer {
+namespace vdrig::gl {
 
 /// The vertex stage of a full-screen pass (GLSL 3.30 core), for link_program: one triangle with corners (-1, -1),
 /// (3, -1) and (-1, 3) in clip space, taken from gl_VertexID, which covers the viewport [-1, 1]^2 exactly once (no
@@ -20,9 +20,10 @@ void main() {
 )";
 
 /// Compiles both stages and links them into a program; returns its GL name (a GLuint). Needs a current OpenGL
-/// context (GlContext). A stage that does not compile, or a program that does not link, is kInternal with `what`
+/// context (gl::Context, context.hpp). A stage that does not compile, or a program that does not link, is kInternal
+/// with `what`
 /// ("fusion shader") and the driver's log; nothing stays allocated then. The caller deletes the program.
 Result<unsigned> link_program(const std::string& vertex_source, const std::string& fragment_source,
                               const std::string& what);
 
-}  // namespace vdrig::viewer
+}  // namespace vdrig::gl
