@@ -215,7 +215,7 @@ std::vector<double> HarmonicModel::sample_parameters(unsigned seed) const {
     for (int i = 0; i < k; ++i) {
       const double l = std::floor(std::sqrt(static_cast<double>(i)));
       p[static_cast<size_t>(ch * k + i)] =
-          i == 0 ? 4.0 + ch : 0.2 / ((l + 1) * (l + 1)) * std::sin(1.3 * i + 0.7 * ch + phase);
+          i == 0 ? 4.0 + ch + 0.5 * std::sin(phase) : 0.2 / ((l + 1) * (l + 1)) * std::sin(1.3 * i + 0.7 * ch + phase);
     }
   return p;
 }
