@@ -94,6 +94,8 @@ void ModelRegistry::add(Entry entry) {
   for (const Entry& e : entries_) VDRIG_CHECK(e.family != entry.family, "model " + entry.family + " registered twice");
   VDRIG_CHECK(!entry.family.empty() && entry.family.find(':') == std::string::npos && entry.parse,
               "a model family needs a name without ':' and a parser");
+  // The examples are how the tests reach a family (test_models, test_render_models): none would leave it unchecked.
+  VDRIG_CHECK(!entry.examples.empty(), "model " + entry.family + " registered without example names");
   entries_.push_back(std::move(entry));
 }
 

@@ -236,11 +236,17 @@ TEST(ModelRegistry, ModelsCheckAndFingerprintTheirOptions) {
   EXPECT_FALSE(bad.model->check_options(bad));
 }
 
-TEST(ModelRegistry, AFamilyRegisteredTwiceIsABrokenInvariant) {
+TEST(ModelRegistry, AFamilyRegisteredTwiceOrWithoutExamplesIsABrokenInvariant) {
   ModelRegistry registry;
   register_builtin_models(registry);
   EXPECT_EQ(registry.syntax(), model_registry().syntax());
   EXPECT_DEATH(register_builtin_models(registry), "registered twice");
+  // A family the tests cannot reach (no example names) is refused as well.
+  ModelRegistry::Entry bare;
+  bare.family = "bare";
+  bare.syntax = "bare";
+  bare.parse = [](const std::string&) -> Result<ModelPtr> { return parse_model("phong:1"); };
+  EXPECT_DEATH(registry.add(bare), "without example names");
 }
 
 /// A model that is not built in: one constant RGB radiance per texel (the mean of the observations).
