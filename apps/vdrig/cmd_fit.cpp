@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 #include <fmt/format.h>
@@ -19,7 +20,11 @@
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/fitting/phong.hpp"
+#include "vdrig/fitting/sh.hpp"
+#include "vdrig/fitting/tiled_fit.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 
 namespace vdrig::app {
@@ -98,6 +103,63 @@ double default_smoothing(const fitting::ReflectanceModel& model) {
   return model.family() == "sh-ls" || model.family() == "hsh" ? 1e-4 : 0.0;
 }
 
+fitting::RingingWindow ringing_window(const std::string& name) {
+  return name == "hanning"   ? fitting::RingingWindow::kHanning
+         : name == "lanczos" ? fitting::RingingWindow::kLanczos
+                             : fitting::RingingWindow::kNone;
+}
+
+/// The models' own options from the command line (each model reads its own: fit_map.hpp, MapFitOptions::model_options).
+/// A flag the user gave must change what the model's fit reads, i.e. its options_fingerprint, or it does not apply to
+/// the model and is refused rather than silently ignored: `--residual relative` on an SH, HSH or PTM fit (their
+/// texels share one unweighted linear operator; only Phong weighs residuals), `--lobe-support` on a model without
+/// lobes, `--smoothing` on PTM.
+Status set_model_options(const FitArgs& a, fitting::MapFitOptions* options) {
+  auto& phong = options->model_options.edit<fitting::PhongFitOptions>();
+  phong.residual = a.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
+  phong.lobe_support = a.lobe_support;
+  phong.significant_lobes_only = !a.all_lobes;
+  // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
+  const double smoothing = a.smoothing.value_or(default_smoothing(*options->model));
+  const fitting::RingingWindow window = ringing_window(a.window);
+  auto& sh = options->model_options.edit<fitting::ShFitOptions>();
+  auto& hsh = options->model_options.edit<fitting::HshFitOptions>();
+  sh.smoothing = hsh.smoothing = smoothing;
+  sh.window = hsh.window = window;
+
+  // Whether the model reads an option: does its fingerprint change when the option does?
+  auto applies = [&](const std::function<void(fitting::MapFitOptions&)>& change) {
+    fitting::MapFitOptions other = *options;
+    change(other);
+    return fitting::fit_options_fingerprint(other) != fitting::fit_options_fingerprint(*options);
+  };
+  auto refuse = [&](const std::string& flag) {
+    return make_error(ErrorCode::kInvalidArgument, flag + " does not apply to " + options->model->family() + " models");
+  };
+  if (a.residual != "absolute" && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::PhongFitOptions>().residual = fitting::ResidualMode::kAbsolute;
+      }))
+    return refuse("--residual");
+  if (a.lobe_support != fitting::PhongFitOptions{}.lobe_support &&
+      !applies([](fitting::MapFitOptions& o) { ++o.model_options.edit<fitting::PhongFitOptions>().lobe_support; }))
+    return refuse("--lobe-support");
+  if (a.all_lobes && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = true;
+      }))
+    return refuse("--all-lobes");
+  if (a.smoothing.value_or(0.0) != 0.0 && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::ShFitOptions>().smoothing += 1.0;
+        o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
+      }))
+    return refuse("--smoothing");
+  if (window != fitting::RingingWindow::kNone && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::ShFitOptions>().window = fitting::RingingWindow::kNone;
+        o.model_options.edit<fitting::HshFitOptions>().window = fitting::RingingWindow::kNone;
+      }))
+    return refuse("--window");
+  return Status::ok();
+}
+
 /// The command line that asks for this fit (recorded in the map, shown by `vdrig report`).
 std::string fit_command(const FitArgs& a) {
   std::string cmd = "vdrig fit " + a.session + " --model " + a.model;
@@ -150,23 +212,8 @@ Status run_fit(const FitArgs& a) {
   fitting::MapFitOptions options;
   options.model = model.value();
   options.threads = a.threads;
-  options.phong.residual =
-      a.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
-  // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
-  const fitting::RingingWindow window = a.window == "hanning"   ? fitting::RingingWindow::kHanning
-                                        : a.window == "lanczos" ? fitting::RingingWindow::kLanczos
-                                                                : fitting::RingingWindow::kNone;
   options.shared_lights = a.shared_lights;
-  options.phong.lobe_support = a.lobe_support;
-  options.phong.significant_lobes_only = !a.all_lobes;
-  const double smoothing = a.smoothing.value_or(default_smoothing(*options.model));
-  options.sh.smoothing = options.hsh.smoothing = smoothing;
-  options.sh.window = options.hsh.window = window;
-  // They regularise the basis expansions, i.e. the models fitted by a linear operator.
-  if ((a.smoothing.value_or(0.0) != 0.0 || window != fitting::RingingWindow::kNone) &&
-      !options.model->linear_in_shared_directions())
-    return make_error(ErrorCode::kInvalidArgument,
-                      "--smoothing and --window do not apply to " + options.model->family() + " models");
+  VDRIG_TRY(set_model_options(a, &options));
   options.held_out = pipeline::spread_holdout_views(n_views, a.holdout);
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a

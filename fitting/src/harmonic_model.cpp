@@ -168,7 +168,7 @@ struct HarmonicFitOptions {
 };
 
 Result<HarmonicFitOptions> resolve(const HarmonicModel& model, ShFitMethod method, const MapFitOptions& options) {
-  HarmonicFitOptions r{options.sh, options.hsh};
+  HarmonicFitOptions r{options.model_options.get<ShFitOptions>(), options.model_options.get<HshFitOptions>()};
   std::string why;
   if (model.basis() == HarmonicModel::Basis::kHsh) {
     r.hsh.bands = model.bands();
@@ -190,6 +190,40 @@ Result<LinearFitOperator> HarmonicModel::fit_operator(const std::vector<Vec3d>& 
   return basis_ == Basis::kHsh ? make_hsh_fit_operator(r->hsh, directions) : make_sh_fit_operator(r->sh, directions);
 }
 
+Status HarmonicModel::check_options(const MapFitOptions& options) const {
+  VDRIG_TRY(ReflectanceModel::check_options(options));
+  auto r = resolve(*this, method_, options);
+  if (!r) return r.error();
+  return Status::ok();
+}
+
+std::string HarmonicModel::options_fingerprint(const MapFitOptions& options) const {
+  auto r = resolve(*this, method_, options);
+  // Options it refuses fit nothing; their text still differs from every valid one.
+  const ShFitOptions sh = r ? r->sh : options.model_options.get<ShFitOptions>();
+  const HshFitOptions hsh = r ? r->hsh : options.model_options.get<HshFitOptions>();
+  return basis_ == Basis::kHsh ? hsh.fingerprint() : sh.fingerprint();
+}
+
+std::vector<double> HarmonicModel::sample_parameters(unsigned seed) const {
+  // A constant term (coefficient 0 of each colour) well above the varying ones, which fall off as 1 / (l + 1)^2 so
+  // that even ten bands in phase cannot take the radiance to 0.
+  const int k = coefficients_per_channel();
+  const double phase = 0.9 * static_cast<double>(seed);
+  std::vector<double> p(static_cast<size_t>(3 * k));
+  for (int ch = 0; ch < 3; ++ch)
+    for (int i = 0; i < k; ++i) {
+      const double l = std::floor(std::sqrt(static_cast<double>(i)));
+      p[static_cast<size_t>(ch * k + i)] =
+          i == 0 ? 4.0 + ch + 0.5 * std::sin(phase) : 0.2 / ((l + 1) * (l + 1)) * std::sin(1.3 * i + 0.7 * ch + phase);
+    }
+  return p;
+}
+
+ModelBasis HarmonicModel::coefficient_basis() const {
+  return {basis_ == Basis::kHsh ? ModelBasis::Kind::kHsh : ModelBasis::Kind::kSh, bands_};
+}
+
 Result<ParameterMap> HarmonicModel::fit_map(const MapFitContext& context) const {
   auto r = resolve(*this, method_, context.options);
   if (!r) return r.error();
@@ -203,11 +237,15 @@ Result<ParameterMap> HarmonicModel::fit_map(const MapFitContext& context) const 
 void register_harmonic_models(ModelRegistry& registry) {
   for (const Family& f : kFamilies) {
     const Family family = f;
-    registry.add({f.name, std::string(f.name) + ":N", [family](const std::string& settings) -> Result<ModelPtr> {
+    const std::string name = f.name;
+    registry.add({name,
+                  name + ":N",
+                  [family](const std::string& settings) -> Result<ModelPtr> {
                     auto bands = parse_bands(settings);
                     if (!bands) return bands.error();
                     return ModelPtr(std::make_shared<HarmonicModel>(family.basis, family.method, bands.value()));
-                  }});
+                  },
+                  {name + ":1", name + ":5", name + ":10"}});
   }
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "vdrig/core/result.hpp"
 
 namespace vdrig::fitting {
@@ -37,6 +39,11 @@ const char* to_string(HshFitMethod method) {
       return "projection";
   }
   return "?";
+}
+
+std::string HshFitOptions::fingerprint() const {
+  return fmt::format("bands:{},method:{},window:{},smoothing:{}", bands, static_cast<int>(method),
+                     static_cast<int>(window), smoothing);
 }
 
 bool HshFitOptions::is_valid(std::string* why) const {

@@ -20,6 +20,37 @@ Result<ModelPtr> ReflectanceModel::with_attributes(const std::map<std::string, d
   return shared_from_this();
 }
 
+Vec3d ReflectanceModel::diffuse_part(std::span<const double>) const {
+  VDRIG_CHECK(false, "model " + name() + " has no diffuse part (has_diffuse_part() is false)");
+  return Vec3d::Zero();
+}
+
+Vec3d ReflectanceModel::peak_direction(std::span<const double> parameters) const {
+  const LobeSummary* best = nullptr;
+  const std::vector<LobeSummary> lobes_of_texel = lobes(parameters);
+  for (const LobeSummary& lobe : lobes_of_texel)
+    if (!best || lobe.peak_rgb.sum() > best->peak_rgb.sum()) best = &lobe;
+  if (best && best->peak_rgb.sum() > 0) return best->direction.normalized();
+  Vec3d brightest = Vec3d::UnitZ();
+  double brightest_value = evaluate(parameters, brightest).mean();
+  for (int zen = 1; zen <= 89; ++zen)
+    for (int az = 0; az < 360; az += 2) {
+      const Vec3d d = direction_from_spherical(deg_to_rad(az), deg_to_rad(zen));
+      const double v = evaluate(parameters, d).mean();
+      if (v > brightest_value) {
+        brightest_value = v;
+        brightest = d;
+      }
+    }
+  return brightest;
+}
+
+Status ReflectanceModel::check_options(const MapFitOptions& options) const {
+  if (options.shared_lights)
+    return make_error(ErrorCode::kInvalidArgument, "shared_lights applies to Phong models only, not " + family());
+  return Status::ok();
+}
+
 Result<LinearFitOperator> ReflectanceModel::fit_operator(const std::vector<Vec3d>&, const MapFitOptions&) const {
   return make_error(ErrorCode::kUnsupported, "model " + name() + " is not linear in shared directions");
 }
@@ -27,9 +58,7 @@ Result<LinearFitOperator> ReflectanceModel::fit_operator(const std::vector<Vec3d
 Result<ParameterMap> fit_map_per_texel(const ModelPtr& model, const MapFitContext& context,
                                        const std::function<std::unique_ptr<TexelFitter>()>& make_fitter) {
   const MapFitOptions& options = context.options;
-  if (options.shared_lights)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "shared_lights applies to Phong models only, not " + model->family());
+  VDRIG_TRY(model->check_options(options));
   const ObservationMapSpec& spec = context.spec;
   const bool holding_out = !options.held_out.empty();
   ParameterMap map(model, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
@@ -65,6 +94,8 @@ void ModelRegistry::add(Entry entry) {
   for (const Entry& e : entries_) VDRIG_CHECK(e.family != entry.family, "model " + entry.family + " registered twice");
   VDRIG_CHECK(!entry.family.empty() && entry.family.find(':') == std::string::npos && entry.parse,
               "a model family needs a name without ':' and a parser");
+  // The examples are how the tests reach a family (test_models, test_render_models): none would leave it unchecked.
+  VDRIG_CHECK(!entry.examples.empty(), "model " + entry.family + " registered without example names");
   entries_.push_back(std::move(entry));
 }
 
@@ -88,6 +119,12 @@ Result<ModelPtr> ModelRegistry::parse(const std::string& name) const {
 std::vector<std::string> ModelRegistry::families() const {
   std::vector<std::string> names;
   for (const Entry& e : entries_) names.push_back(e.family);
+  return names;
+}
+
+std::vector<std::string> ModelRegistry::examples() const {
+  std::vector<std::string> names;
+  for (const Entry& e : entries_) names.insert(names.end(), e.examples.begin(), e.examples.end());
   return names;
 }
 

@@ -1,6 +1,7 @@
 #include "vdrig/fitting/phong.hpp"
 
 #include "bounded_lm.hpp"
+#include "vdrig/fitting/lobe_fit.hpp"
 
 #include <ceres/ceres.h>
 
@@ -12,6 +13,8 @@
 #include <functional>
 #include <limits>
 
+#include <fmt/format.h>
+
 namespace vdrig::fitting {
 
 Vec3d PhongParams::evaluate(const Vec3d& v) const {
@@ -21,6 +24,16 @@ Vec3d PhongParams::evaluate(const Vec3d& v) const {
     if (c > 0.0) out += lobe.ks * std::pow(c, lobe.shininess);
   }
   return out;
+}
+
+std::string PhongFitOptions::fingerprint() const {
+  // {} formats doubles as the shortest text that reads back to the same value: equal text, equal options.
+  std::string s =
+      fmt::format("lobes:{},solver:{},shared_m:{},max_m:{},iterations:{},residual:{},floor:{},fixed:", lobes,
+                  static_cast<int>(solver), shared_shininess, max_shininess, max_iterations, static_cast<int>(residual),
+                  relative_floor);
+  for (const Vec3d& d : fixed_directions) s += fmt::format("{},{},{}/", d.x(), d.y(), d.z());
+  return s + fmt::format(",support:{},significant:{}", lobe_support, significant_lobes_only);
 }
 
 bool PhongFitOptions::is_valid(std::string* why) const {
@@ -154,91 +167,36 @@ class PhongTexelCost {
   std::vector<double> weight_;  // per observation and channel (3 each): 1 for absolute, 1/(|o|+floor) for relative
 };
 
-double luminance(const Eigen::Vector3f& rgb) { return rgb[0] + rgb[1] + rgb[2]; }
-
-/// Linear least squares of o_i = kd + ks s_i for one channel with kd, ks >= 0. Returns the squared error.
-double fit_two_terms(const std::vector<double>& s, const std::vector<double>& o, double* kd, double* ks) {
-  const double n = static_cast<double>(s.size());
-  double ss = 0, so = 0, s1 = 0, o1 = 0;
-  for (size_t i = 0; i < s.size(); ++i) {
-    ss += s[i] * s[i];
-    so += s[i] * o[i];
-    s1 += s[i];
-    o1 += o[i];
-  }
-  const double det = n * ss - s1 * s1;
-  double a = o1 / n, b = 0;
-  if (std::abs(det) > 1e-12 * std::max(1.0, n * ss)) {
-    a = (ss * o1 - s1 * so) / det;
-    b = (n * so - s1 * o1) / det;
-  }
-  if (b < 0) {
-    b = 0;
-    a = o1 / n;
-  }
-  if (a < 0) {
-    a = 0;
-    b = ss > 0 ? std::max(0.0, so / ss) : 0.0;
-  }
-  double err = 0;
-  for (size_t i = 0; i < s.size(); ++i) {
-    const double r = a + b * s[i] - o[i];
-    err += r * r;
-  }
-  *kd = a;
-  *ks = b;
-  return err;
-}
-
-/// Adds a lobe at the direction of the largest residual of `base` and picks Kd, Ks_new, m by a coarse search.
-/// The per-observation quantities that do not depend on the candidate m (cosines, their logs, what the existing
-/// lobes leave unexplained) are computed once; each candidate then costs one exp per lit observation.
+/// Adds a lobe at the direction of the largest residual of `params` and picks Kd, Ks_new, m by a coarse search
+/// (lobe_fit.hpp). The per-observation quantities that do not depend on the candidate m (cosines, their logs, what
+/// the existing lobes leave unexplained) are computed once; each candidate then costs one exp per lit observation.
 void initialise_lobe(const TexelObservations& obs, const PhongFitOptions& opt, PhongParams* params) {
   const size_t n = obs.size();
-  // Residual of the current model (without a new lobe) per observation, as luminance.
-  size_t peak = 0;
-  double best = -1e300;
-  std::vector<double> o[3];
-  for (auto& v : o) v.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const Vec3d d = obs.direction[i].cast<double>();
+  const LobeTarget target = lobe_target(obs, params->kd, [&](const Vec3d& d) {
     Vec3d others = Vec3d::Zero();
     for (const auto& l : params->lobes) {
       const double c = d.dot(l.direction);
       if (c > 0) others += l.ks * std::pow(c, l.shininess);
     }
-    for (int ch = 0; ch < 3; ++ch) o[ch][i] = obs.radiance[i][ch] - others[ch];
-    const double r = luminance(obs.radiance[i]) - params->kd.sum() - others.sum();
-    if (r > best) {
-      best = r;
-      peak = i;
-    }
-  }
-  Vec3d r0 = obs.direction[peak].cast<double>().normalized();
-  if (r0.z() < 1e-3) r0 = Vec3d(r0.x(), r0.y(), 1e-3).normalized();
+    return others;
+  });
+  Vec3d r0 = lobe_start_direction(obs.direction[target.peak].cast<double>());
   if (!opt.fixed_directions.empty()) r0 = opt.fixed_directions[params->lobes.size()].normalized();
   std::vector<double> log_c(n);
   for (size_t i = 0; i < n; ++i) {
     const double c = obs.direction[i].cast<double>().dot(r0);
     log_c[i] = c > 0 ? std::log(c) : -std::numeric_limits<double>::infinity();
   }
-  std::vector<double> s(n);
-  double best_err = 1e300;
-  PhongLobe best_lobe;
-  Vec3d best_kd = params->kd;
-  for (double m = 1.0; m <= opt.max_shininess; m *= 1.5) {
-    for (size_t i = 0; i < n; ++i) s[i] = std::exp(m * log_c[i]);  // exp(-inf) = 0 for unlit observations
-    double err = 0;
-    Vec3d kd, ks;
-    for (int ch = 0; ch < 3; ++ch) err += fit_two_terms(s, o[ch], &kd[ch], &ks[ch]);
-    if (err < best_err) {
-      best_err = err;
-      best_lobe = {ks, r0, m};
-      best_kd = kd;
-    }
+  const LobeStart start =
+      search_lobe_width(target, geometric_steps(1.0, opt.max_shininess, 1.5), [&](double m, std::vector<double>& s) {
+        for (size_t i = 0; i < n; ++i) s[i] = std::exp(m * log_c[i]);  // exp(-inf) = 0 for unlit observations
+      });
+  if (std::isnan(start.width)) {  // no candidate fitted (non-finite observations): an empty lobe
+    params->lobes.push_back(PhongLobe{});
+    return;
   }
-  params->kd = best_kd;
-  params->lobes.push_back(best_lobe);
+  params->kd = start.base;
+  params->lobes.push_back({start.scale, r0, start.width});
 }
 
 /// The same residuals as PhongTexelCost, as a Ceres functor with automatic derivatives: one residual block per texel

@@ -1,10 +1,12 @@
 #include "vdrig/fitting/ptm_model.hpp"
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "linear_texel_fit.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/sh.hpp"  // least_squares_operator, LinearFitOperator
 
 namespace vdrig::fitting {
 namespace {
@@ -133,6 +135,23 @@ Result<LinearFitOperator> PtmModel::fit_operator(const std::vector<Vec3d>& direc
   return LinearFitOperator(ptm_operator(directions));
 }
 
+std::vector<double> PtmModel::sample_parameters(unsigned seed) const {
+  // The constant term (a5) well above the varying ones, so the radiance stays positive; chromaticities near 1.
+  const double phase = 0.9 * static_cast<double>(seed);
+  std::vector<double> p(static_cast<size_t>(parameter_count()));
+  for (size_t i = 0; i < p.size(); ++i) {
+    const bool chroma = variant_ == Variant::kLrgb && i >= static_cast<size_t>(kTerms);
+    p[i] = chroma                                       ? 0.8 + 0.1 * static_cast<double>(i % 3)
+           : static_cast<int>(i % kTerms) == kTerms - 1 ? 4.0 + 0.1 * static_cast<double>(i)
+                                                        : 0.3 * std::sin(1.3 * static_cast<double>(i) + phase);
+  }
+  return p;
+}
+
+ModelBasis PtmModel::coefficient_basis() const {
+  return {variant_ == Variant::kRgb ? ModelBasis::Kind::kPtmRgb : ModelBasis::Kind::kPtmLrgb, 0};
+}
+
 Result<ParameterMap> PtmModel::fit_map(const MapFitContext& context) const {
   const Variant variant = variant_;
   return fit_map_per_texel(shared_from_this(), context,
@@ -140,12 +159,15 @@ Result<ParameterMap> PtmModel::fit_map(const MapFitContext& context) const {
 }
 
 void register_ptm_model(ModelRegistry& registry) {
-  registry.add({"ptm", "ptm:rgb|ptm:lrgb", [](const std::string& settings) -> Result<ModelPtr> {
+  registry.add({"ptm",
+                "ptm:rgb|ptm:lrgb",
+                [](const std::string& settings) -> Result<ModelPtr> {
                   if (settings.empty() || settings == "rgb")
                     return ModelPtr(std::make_shared<PtmModel>(PtmModel::Variant::kRgb));
                   if (settings == "lrgb") return ModelPtr(std::make_shared<PtmModel>(PtmModel::Variant::kLrgb));
                   return make_error(ErrorCode::kInvalidArgument, "variant must be rgb or lrgb");
-                }});
+                },
+                {"ptm:rgb", "ptm:lrgb"}});
 }
 
 }  // namespace vdrig::fitting

@@ -10,6 +10,8 @@
 #include <mutex>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/voronoi.hpp"
 
@@ -164,6 +166,12 @@ double ringing_window_factor(RingingWindow window, int l, int bands) {
       return l == 0 ? 1.0 : std::sin(t) / t;
   }
   return 1.0;
+}
+
+std::string ShFitOptions::fingerprint() const {
+  // {} formats doubles as the shortest text that reads back to the same value.
+  return fmt::format("bands:{},method:{},window:{},smoothing:{}", bands, static_cast<int>(method),
+                     static_cast<int>(window), smoothing);
 }
 
 bool ShFitOptions::is_valid(std::string* why) const {

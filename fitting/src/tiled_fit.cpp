@@ -73,8 +73,6 @@ class PerTexelTiledFit final : public ModelTiledFit {
   ObservationMapSpec spec_;
 };
 
-std::string vec3(const Vec3d& v) { return fmt::format("{},{},{}", v.x(), v.y(), v.z()); }
-
 }  // namespace
 
 Result<std::unique_ptr<ModelTiledFit>> per_texel_tiled_fit(ModelPtr model, const MapFitOptions& options,
@@ -99,23 +97,10 @@ std::string fit_options_fingerprint(const MapFitOptions& o) {
   std::sort(held.begin(), held.end());
   held.erase(std::unique(held.begin(), held.end()), held.end());
   for (size_t i = 0; i < held.size(); ++i) s += (i ? "," : "") + std::to_string(held[i]);
-  const PhongFitOptions& p = o.phong;
-  s += fmt::format(";phong=lobes:{},solver:{},shared_m:{},max_m:{},iterations:{},residual:{},floor:{},fixed:", p.lobes,
-                   static_cast<int>(p.solver), p.shared_shininess, p.max_shininess, p.max_iterations,
-                   static_cast<int>(p.residual), p.relative_floor);
-  for (const Vec3d& d : p.fixed_directions) s += vec3(d) + "/";
-  s += fmt::format(",support:{},significant:{}", p.lobe_support, p.significant_lobes_only);
-  s += fmt::format(";sh=bands:{},method:{},window:{},smoothing:{}", o.sh.bands, static_cast<int>(o.sh.method),
-                   static_cast<int>(o.sh.window), o.sh.smoothing);
-  s += fmt::format(";hsh=bands:{},method:{},window:{},smoothing:{}", o.hsh.bands, static_cast<int>(o.hsh.method),
-                   static_cast<int>(o.hsh.window), o.hsh.smoothing);
   s += fmt::format(";shared_lights={}", o.shared_lights);
-  if (o.shared_lights) {
-    const LightEstimationOptions& l = o.lights;
-    s += fmt::format(";lights=max:{},inlier:{},exclusion:{},min_inliers:{},iterations:{},max_distance:{},seed:{}",
-                     l.max_lights, l.inlier_angle_rad, l.exclusion_angle_rad, l.min_inliers, l.ransac_iterations,
-                     l.max_distance_mm, l.seed);
-  }
+  // Everything else the fit reads is the model's to say (its own options, the lights of a shared-lights pass): a
+  // model's new option goes into its options_fingerprint, beside the option itself, not here.
+  if (o.model) s += ";" + o.model->family() + "=" + o.model->options_fingerprint(o);
   return s;
 }
 

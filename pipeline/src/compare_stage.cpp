@@ -12,7 +12,7 @@
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
@@ -24,19 +24,20 @@ namespace {
 constexpr uint8_t kDiffuse = 128, kHighlight = 255;
 constexpr const char* kHeldOutAttribute = "vdrig.held_out_views";
 
-/// Per texel, the RGB sum of the radiance that is not specular: Kd for a Phong map, else the lowest radiance over
-/// kFloorDirections hemisphere directions (CV_64FC1, T x S).
+/// Per texel, the RGB sum of the radiance that is not specular: the model's diffuse part where it has one (Phong's
+/// Kd), else the lowest radiance over kFloorDirections hemisphere directions (CV_64FC1, T x S).
 cv::Mat diffuse_floor(const fitting::ParameterMap& map) {
   const int S = map.texels_s(), T = map.texels_t();
   cv::Mat floor(T, S, CV_64FC1);
-  const bool phong = map.model().family() == "phong";
+  const fitting::ReflectanceModel& model = map.model();
+  const bool exact = model.has_diffuse_part();
   const std::vector<Vec3d> directions = hemisphere_directions(kFloorDirections);
   cv::parallel_for_(cv::Range(0, T), [&](const cv::Range& rows) {
     for (int t = rows.start; t < rows.end; ++t)
       for (int s = 0; s < S; ++s) {
         double lowest = 0.0;
-        if (phong) {
-          lowest = fitting::phong_texel(map, s, t).kd.sum();
+        if (exact) {
+          lowest = model.diffuse_part(map.parameters(s, t)).sum();
         } else {
           lowest = std::numeric_limits<double>::infinity();
           for (const Vec3d& v : directions) lowest = std::min(lowest, map.evaluate(s, t, v).sum());
@@ -154,7 +155,7 @@ Result<CompareReport> compare_maps(const capture::Session& session, const std::v
   }
   size_t reference = 0;
   for (size_t i = maps.size(); i-- > 0;)
-    if (maps[i].model().family() == "phong") reference = i;
+    if (maps[i].model().has_diffuse_part()) reference = i;  // the first whose diffuse part is exact
 
   auto geometry = session_geometry(session);
   if (!geometry) return geometry.error();

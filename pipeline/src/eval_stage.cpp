@@ -8,7 +8,6 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/capture/session.hpp"
-#include "vdrig/fitting/phong_model.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -113,7 +112,9 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
     camera_centres = std::move(centres.value());
   }
   const bool with_session = !camera_centres.empty();
-  const bool phong_map = map.model().family() == "phong";
+  // Compared with a Phong-form truth where the model says what its diffuse part is (its lobes may be none).
+  const fitting::ReflectanceModel& model = map.model();
+  const bool phong_comparable = model.has_diffuse_part();
   const int S = map.texels_s(), T = map.texels_t();
   const double half_w = map.width_mm() / S / 2.0, half_h = map.height_mm() / T / 2.0;
   const std::vector<Vec3d> dense = hemisphere_directions(options.dense_directions);
@@ -137,20 +138,21 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
             if (c.z() > p.z()) sampled.push_back((c - p).normalized());
           rel_session.at<float>(t, s) = static_cast<float>(relative_rms(map, s, t, scene, p, sampled));
         }
-        if (!phong_map) continue;
+        if (!phong_comparable) continue;
         const auto truth = scene.phong_truth(p);
         if (!truth || truth->kd.isZero()) continue;
-        const fitting::PhongParams fit = fitting::phong_texel(map, s, t);
+        const std::vector<double> parameters = map.parameters(s, t);
         PhongTexel& out = phong[static_cast<size_t>(t) * S + s];
         out.valid = true;
-        out.kd = (fit.kd - truth->kd).norm() / truth->kd.norm();
+        out.kd = (model.diffuse_part(parameters) - truth->kd).norm() / truth->kd.norm();
         if (!truth->ks.isZero()) {
           out.has_lobe = true;
-          const fitting::PhongLobe* best = nullptr;
-          for (const auto& lobe : fit.lobes)
-            if (!best || lobe.ks.sum() > best->ks.sum()) best = &lobe;
-          out.ks = best ? (best->ks - truth->ks).norm() / truth->ks.norm() : 1.0;
-          out.m = best ? std::abs(best->shininess - truth->shininess) / truth->shininess : 1.0;
+          const std::vector<fitting::LobeSummary> lobes = model.lobes(parameters);
+          const fitting::LobeSummary* best = nullptr;
+          for (const auto& lobe : lobes)
+            if (!best || lobe.peak_rgb.sum() > best->peak_rgb.sum()) best = &lobe;
+          out.ks = best ? (best->peak_rgb - truth->ks).norm() / truth->ks.norm() : 1.0;
+          out.m = best ? std::abs(best->phong_exponent - truth->shininess) / truth->shininess : 1.0;
         }
       }
   });

@@ -13,9 +13,8 @@
 #include "jpeg_444.hpp"
 #include "vdrig/core/file_io.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/hsh.hpp"
-#include "vdrig/fitting/ptm_model.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
 
 namespace vdrig::rti {
 namespace {
@@ -46,9 +45,8 @@ std::string format_float(double v) {
 /// Per-texel coefficients K x 3 (rows = terms, columns = R G B) of the map, in its file's units.
 using TexelCoefficients = std::function<Eigen::MatrixXd(int s, int t)>;
 
-Status write_ptm(const ParameterMap& map, const fitting::PtmModel& model, const fs::path& out) {
+Status write_ptm(const ParameterMap& map, bool rgb, const fs::path& out) {
   const int S = map.texels_s(), T = map.texels_t();
-  const bool rgb = model.variant() == fitting::PtmModel::Variant::kRgb;
   // Coefficients in code units: a[(t * S + s) * 18 + 6 c + k] (RGB), or L' and the colour bytes (LRGB).
   std::vector<double> a(static_cast<size_t>(S) * T * (rgb ? 18 : 6));
   std::vector<uint8_t> colour(rgb ? 0 : static_cast<size_t>(S) * T * 3);
@@ -94,10 +92,14 @@ Status write_ptm(const ParameterMap& map, const fitting::PtmModel& model, const 
   return write_file_atomic(out, bytes);
 }
 
-/// The map's HSH coefficients in RTIViewer's basis, K x 3 per texel.
+/// The map's HSH coefficients in RTIViewer's basis, K x 3 per texel (a kHsh model's parameters are its bands^2
+/// coefficients per colour, colour by colour: ModelBasis).
 TexelCoefficients rti_hsh_coefficients(const ParameterMap& map, int bands) {
   const Eigen::MatrixXd convert = vdrig_to_rti_hsh(bands);
-  return [&map, convert](int s, int t) { return Eigen::MatrixXd(convert * fitting::harmonic_coefficients(map, s, t)); };
+  return [&map, convert, bands](int s, int t) {
+    const std::vector<double> p = map.parameters(s, t);
+    return Eigen::MatrixXd(convert * Eigen::Map<const Eigen::MatrixXd>(p.data(), bands * bands, 3));
+  };
 }
 
 Status write_rti(const ParameterMap& map, int bands, const fs::path& out) {
@@ -133,19 +135,18 @@ Status write_relight(const ParameterMap& map, const fs::path& out, const ExportO
   TexelCoefficients coefficients;
   int K = 0;
   std::string type;
-  if (const auto* ptm = dynamic_cast<const fitting::PtmModel*>(&map.model());
-      ptm && ptm->variant() == fitting::PtmModel::Variant::kRgb) {
+  const fitting::ModelBasis basis = map.model().coefficient_basis();
+  if (basis.kind == fitting::ModelBasis::Kind::kPtmRgb) {
     K = 6;
     type = "ptm";
     coefficients = [&map](int s, int t) {
       const std::vector<double> p = map.parameters(s, t);
       return Eigen::MatrixXd(Eigen::Map<const Eigen::MatrixXd>(p.data(), 6, 3));
     };
-  } else if (const auto* h = dynamic_cast<const fitting::HarmonicModel*>(&map.model());
-             h && h->basis() == fitting::HarmonicModel::Basis::kHsh && (h->bands() == 2 || h->bands() == 3)) {
-    K = h->bands() * h->bands();
+  } else if (basis.kind == fitting::ModelBasis::Kind::kHsh && (basis.bands == 2 || basis.bands == 3)) {
+    K = basis.bands * basis.bands;
     type = "hsh";
-    coefficients = rti_hsh_coefficients(map, h->bands());
+    coefficients = rti_hsh_coefficients(map, basis.bands);
   } else {
     return make_error(ErrorCode::kInvalidArgument,
                       "relight export needs a ptm:rgb, hsh:2 or hsh:3 map, not " + map.model().name());
@@ -240,20 +241,21 @@ Eigen::MatrixXd vdrig_to_rti_hsh(int bands) {
 Status export_map(const ParameterMap& map, ExportFormat format, const fs::path& out, const ExportOptions& options) {
   if (options.jpeg_quality < 1 || options.jpeg_quality > 100)
     return make_error(ErrorCode::kInvalidArgument, "JPEG quality must be 1..100");
-  const auto* ptm = dynamic_cast<const fitting::PtmModel*>(&map.model());
-  const auto* hsh = dynamic_cast<const fitting::HarmonicModel*>(&map.model());
+  // The formats are defined by their bases: the model says which basis its parameters are in (ModelBasis).
+  const fitting::ModelBasis basis = map.model().coefficient_basis();
+  using Kind = fitting::ModelBasis::Kind;
   Status status = Status::ok();
   switch (format) {
     case ExportFormat::kPtm:
-      if (!ptm)
+      if (basis.kind != Kind::kPtmRgb && basis.kind != Kind::kPtmLrgb)
         return make_error(ErrorCode::kInvalidArgument,
                           ".ptm needs a ptm:rgb or ptm:lrgb map, not " + map.model().name());
-      status = write_ptm(map, *ptm, out);
+      status = write_ptm(map, basis.kind == Kind::kPtmRgb, out);
       break;
     case ExportFormat::kRti:
-      if (!hsh || hsh->basis() != fitting::HarmonicModel::Basis::kHsh || (hsh->bands() != 2 && hsh->bands() != 3))
+      if (basis.kind != Kind::kHsh || (basis.bands != 2 && basis.bands != 3))
         return make_error(ErrorCode::kInvalidArgument, ".rti needs an hsh:2 or hsh:3 map, not " + map.model().name());
-      status = write_rti(map, hsh->bands(), out);
+      status = write_rti(map, basis.bands, out);
       break;
     case ExportFormat::kRelight:
       status = write_relight(map, out, options);

@@ -137,7 +137,7 @@ TEST(SourceComparisons, SeventeenDirectionsPhong1WithSharedLights) {
   MapFitOptions options;
   options.model = parse_model("phong:1").value();
   options.shared_lights = true;
-  options.phong = source_method();
+  options.model_options.set(source_method());
   options.threads = 2;
   // patchwork on a 20 x 20 grid: texel (14, 5) is centred on the glossy texel (225, -225) mm.
   {

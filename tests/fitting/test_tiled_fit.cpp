@@ -7,7 +7,9 @@
 #include <cstring>
 #include <random>
 
+#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/lights.hpp"
+#include "vdrig/fitting/phong.hpp"
 #include "vdrig/fitting/tiled_fit.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
@@ -139,8 +141,12 @@ TEST_F(TiledFit, RefusesWhatTheFitRefusesAndFingerprintsTheOptions) {
   EXPECT_NE(refused.error().message.find("Phong models only"), std::string::npos);
   options.shared_lights = false;
   MapFitOptions other = options;
-  other.hsh.smoothing = 1e-4;
+  other.model_options.edit<HshFitOptions>().smoothing = 1e-4;
   EXPECT_NE(fit_options_fingerprint(options), fit_options_fingerprint(other));
+  EXPECT_EQ(options.model_options.get<HshFitOptions>().smoothing, 0.0);  // the copy was edited, not the original
+  other = options;
+  other.model_options.edit<PhongFitOptions>().lobe_support = 5;  // an option hsh does not read
+  EXPECT_EQ(fit_options_fingerprint(options), fit_options_fingerprint(other));
   other = options;
   other.threads = 7;  // not part of the result
   EXPECT_EQ(fit_options_fingerprint(options), fit_options_fingerprint(other));

@@ -83,8 +83,8 @@ TEST(BetweenTheViews, ANoisySparseSessionOfADiffusePatchInventsNoHighlight) {
     fitting::MapFitOptions guarded;
     guarded.model = fitting::parse_model(model).value();
     fitting::MapFitOptions unguarded = guarded;
-    unguarded.phong.lobe_support = 0;
-    unguarded.phong.significant_lobes_only = false;
+    unguarded.model_options.edit<fitting::PhongFitOptions>().lobe_support = 0;
+    unguarded.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = false;
     auto map = fitting::fit_parameter_map(obs.value(), guarded);
     ASSERT_TRUE(map) << map.error().describe();
     auto before = fitting::fit_parameter_map(obs.value(), unguarded);

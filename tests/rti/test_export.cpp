@@ -13,6 +13,7 @@
 
 #include "synthetic_stack.hpp"
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/rti/export.hpp"
 #include "vdrig/rti/import.hpp"
 #include "vdrig/test/temp_dir.hpp"

@@ -1,6 +1,7 @@
-// The viewer's generated GLSL for SH, HSH and PTM maps against ParameterMap::evaluate (fitting/sh.cpp, hsh.cpp): a
-// headless render of a map with different coefficients in every texel must match, pixel by pixel, the same
-// bilinear blend of per-texel radiance computed on the CPU. Needs an OpenGL 3.3 context (xvfb-run in CI).
+// The viewer's generated GLSL of every registered model (ReflectanceModel::glsl) against ParameterMap::evaluate: a
+// headless render of a map with different parameters in every texel (the model's sample_parameters) must match,
+// pixel by pixel, the same bilinear blend of per-texel radiance computed on the CPU. Needs an OpenGL 3.3 context
+// (xvfb-run in CI).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,7 +9,6 @@
 #include <cstdio>
 
 #include "cpu_reference.hpp"
-#include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
@@ -18,31 +18,13 @@ namespace {
 constexpr int kS = 6, kT = 5;
 constexpr double kW = 600.0, kH = 500.0;
 
+/// A map of the model with a different plausible texel in every texel (the model's own sample parameters).
 fitting::ParameterMap make_map(const std::string& spec) {
-  const auto model = fitting::parse_model(spec).value();
+  fitting::ModelPtr model = fitting::parse_model(spec).value();
+  if (!model->storable()) model = model->storable_sample();
   fitting::ParameterMap map(model, kS, kT, kW, kH);
-  if (!dynamic_cast<const fitting::HarmonicModel*>(model.get())) {
-    // PTM: a constant term (ptm.*.5) well above the varying ones, chromaticities near 1.
-    const std::vector<std::string> channels = model->channels();
-    for (int t = 0; t < kT; ++t)
-      for (int s = 0; s < kS; ++s) {
-        std::vector<double> p(channels.size());
-        for (size_t i = 0; i < p.size(); ++i)
-          p[i] = channels[i].ends_with(".5")          ? 4.0 + 0.1 * static_cast<double>(i)
-                 : channels[i].starts_with("chroma.") ? 0.8 + 0.1 * static_cast<double>(i % 3)
-                                                      : 0.3 * std::sin(1.3 * static_cast<double>(i) + s - 2.1 * t);
-        map.set_parameters(s, t, p);
-      }
-    return map;
-  }
-  const int k = dynamic_cast<const fitting::HarmonicModel&>(*model).coefficients_per_channel();
   for (int t = 0; t < kT; ++t)
-    for (int s = 0; s < kS; ++s) {
-      Eigen::MatrixXd c(k, 3);
-      for (int i = 0; i < k; ++i)
-        for (int ch = 0; ch < 3; ++ch) c(i, ch) = i == 0 ? 4.0 + ch : 0.3 * std::sin(1.3 * i + 0.7 * ch + s - 2.1 * t);
-      fitting::set_harmonic_coefficients(map, s, t, c);
-    }
+    for (int s = 0; s < kS; ++s) map.set_parameters(s, t, model->sample_parameters(static_cast<unsigned>(t * kS + s)));
   return map;
 }
 
@@ -95,13 +77,13 @@ void check_render(const std::string& spec) {
   std::printf("%s: %d pixels compared, worst relative difference %.2e\n", spec.c_str(), compared, worst);
 }
 
-TEST(RenderModels, ShMapMatchesEvaluate) { check_render("sh-ls:5"); }
-TEST(RenderModels, HshMapMatchesEvaluate) { check_render("hsh:5"); }
-TEST(RenderModels, PtmMapsMatchEvaluate) {
-  check_render("ptm:rgb");
-  check_render("ptm:lrgb");
+// Every example of every registered family (ModelRegistry::examples): a new model is checked without editing this
+// file.
+TEST(RenderModels, EveryModelsGlslMatchesEvaluate) {
+  const std::vector<std::string> names = fitting::model_registry().examples();
+  ASSERT_FALSE(names.empty());
+  for (const std::string& name : names) check_render(name);
 }
-TEST(RenderModels, TenBandShCompiles) { check_render("sh-lsop:10"); }
 
 }  // namespace
 }  // namespace vdrig::viewer

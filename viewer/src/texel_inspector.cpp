@@ -6,34 +6,11 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/fitting/phong_model.hpp"  // kCappedLobesChannel
 
 namespace vdrig::viewer {
 namespace {
-
-/// The direction of the texel's largest radiance: a Phong map's strongest lobe, else the brightest (mean over RGB)
-/// direction of a 1-degree zenith x 2-degree azimuth grid of the hemisphere.
-Vec3d peak_direction(const fitting::ParameterMap& map, int s, int t) {
-  if (map.model().family() == "phong") {
-    const fitting::PhongParams p = fitting::phong_texel(map, s, t);
-    const fitting::PhongLobe* best = nullptr;
-    for (const auto& lobe : p.lobes)
-      if (!best || lobe.ks.sum() > best->ks.sum()) best = &lobe;
-    if (best && best->ks.sum() > 0) return best->direction.normalized();
-  }
-  Vec3d best = Vec3d::UnitZ();
-  double best_value = map.evaluate(s, t, best).mean();
-  for (int zen = 1; zen <= 89; ++zen)
-    for (int az = 0; az < 360; az += 2) {
-      const Vec3d d = direction_from_spherical(deg_to_rad(az), deg_to_rad(zen));
-      const double v = map.evaluate(s, t, d).mean();
-      if (v > best_value) {
-        best_value = v;
-        best = d;
-      }
-    }
-  return best;
-}
 
 std::string format_value(double v) {
   char buf[32];
@@ -100,7 +77,7 @@ TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, co
   r.band_deg = options.band_deg;
 
   const Vec3d n = Vec3d::UnitZ();
-  r.peak_direction = peak_direction(map, s, t);
+  r.peak_direction = map.model().peak_direction(map.parameters(s, t));
   const Vec3d horizontal(r.peak_direction.x(), r.peak_direction.y(), 0.0);
   r.circle_u = horizontal.norm() > 1e-6 ? horizontal.normalized() : Vec3d::UnitX();
   for (int i = 0; i < options.curve_points; ++i) {

@@ -6,14 +6,12 @@
 #include <functional>
 #include <vector>
 
-#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/lights.hpp"
 #include "vdrig/fitting/model.hpp"
+#include "vdrig/fitting/model_options.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
-#include "vdrig/fitting/phong.hpp"
-#include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::fitting {
 
@@ -26,10 +24,11 @@ struct MapFitProgress {
 
 struct MapFitOptions {
   ModelPtr model = parse_model("phong:1").value();
-  // Options of the built-in models (each model reads its own and ignores the others):
-  PhongFitOptions phong;  // Phong: lobes/shininess sharing taken from `model`
-  ShFitOptions sh;        // SH: bands and method taken from `model`; window/smoothing used as given
-  HshFitOptions hsh;      // HSH: bands taken from `model`; method/window/smoothing used as given
+  /// Each model's own options, by type (model_options.hpp; each model reads its own and ignores the others):
+  /// PhongFitOptions (phong.hpp; lobes and shininess sharing taken from `model`), ShFitOptions (sh.hpp; bands and
+  /// method taken from `model`), HshFitOptions (hsh.hpp; bands taken from `model`), e.g.
+  /// `options.model_options.edit<PhongFitOptions>().lobe_support = 0`. Unset: the type's defaults.
+  ModelOptions model_options;
   /// Observation-map view indices left out of the fit (any order); their observations give holdout.R/G/B, the RMS
   /// residual of the fitted model on them (0 where a texel has no held-out observation). The map records them
   /// (vdrig.held_out_views, sorted).

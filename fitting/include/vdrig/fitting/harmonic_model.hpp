@@ -4,8 +4,8 @@
 //
 // Channels: sh.<C>.<ii> (hsh.<C>.<ii> for HSH), C = R, G, B, ii = l (l + 1) + m as two digits, in the order
 // R 00..N^2-1, G ..., B ...; a texel's parameters are therefore the N^2 x 3 coefficient matrix in column-major
-// order. Header attribute: vdrig.bands. Its map fit honours MapFitOptions::sh (SH) or ::hsh (HSH), bands and SH
-// method taken from the name.
+// order. Header attribute: vdrig.bands. Its map fit honours MapFitOptions::model_options' ShFitOptions (SH) or
+// HshFitOptions (HSH), bands and SH method taken from the name; its options_fingerprint is that set.
 #pragma once
 
 #include <Eigen/Core>
@@ -36,6 +36,11 @@ class HarmonicModel : public ReflectanceModel {
   bool reports_leave_one_out() const override { return basis_ == Basis::kHsh; }
   Result<LinearFitOperator> fit_operator(const std::vector<Vec3d>& directions,
                                          const MapFitOptions& options) const override;
+  std::vector<double> sample_parameters(unsigned seed) const override;
+  ModelBasis coefficient_basis() const override;  // kSh or kHsh with the bands
+  /// ShFitOptions or HshFitOptions valid for the name's bands (and method).
+  Status check_options(const MapFitOptions& options) const override;
+  std::string options_fingerprint(const MapFitOptions& options) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
 
  private:

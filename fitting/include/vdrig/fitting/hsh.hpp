@@ -51,6 +51,8 @@ struct HshFitOptions {
   double smoothing = 0.0;                       // Laplacian penalty lambda as in sh.hpp, >= 0
 
   bool is_valid(std::string* why = nullptr) const;
+  /// Every field as text (model_options.hpp): equal text, equal options.
+  std::string fingerprint() const;
 };
 
 /// Operator of an HSH fit on fixed directions. `weights` (empty = all 1): least-squares weights for

@@ -8,9 +8,11 @@
 // file format and must not change for an existing model.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -31,8 +33,27 @@ class ModelTiledFit;
 class ReflectanceModel;
 using ModelPtr = std::shared_ptr<const ReflectanceModel>;
 
+/// A view-dependent term of a texel with a peak direction, as ReflectanceModel::lobes describes it: what callers that
+/// compare a fit with a Phong-form truth (pipeline's eval) or look for a highlight (the texel inspector) need.
+struct LobeSummary {
+  Vec3d peak_rgb = Vec3d::Zero();    // the lobe's radiance at its peak, beyond the diffuse part (Phong: Ks)
+  Vec3d direction = Vec3d::UnitZ();  // its peak direction, unit (Phong: r)
+  double phong_exponent = 1.0;       // the Phong exponent m of the same width (Phong: m)
+};
+
+/// The basis a linear model's coefficients are in, for exporters to formats defined by their basis (rti/: .ptm,
+/// .rti, relight): kNone for a model that is not a combination of one of these bases.
+struct ModelBasis {
+  enum class Kind { kNone, kPtmRgb, kPtmLrgb, kSh, kHsh };
+  Kind kind = Kind::kNone;
+  int bands = 0;  // kSh, kHsh: bands (bands^2 coefficients per colour); parameters are then per colour, in order
+};
+
 class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
  public:
+  ReflectanceModel() = default;
+  ReflectanceModel(const ReflectanceModel& other) : std::enable_shared_from_this<ReflectanceModel>(other) {}
+  ReflectanceModel& operator=(const ReflectanceModel&) = delete;
   virtual ~ReflectanceModel() = default;
 
   /// The registry name: the part of the model name before the first ':' ("phong", "sh-ls", "hsh"). Stored in a
@@ -44,7 +65,15 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// Names of the parameter channels of one texel, in parameter order; unique, and none of the quality channels
   /// ParameterMap adds (rms.*, mpe.*, n, holdout.*). Empty while the model is not storable (see storable()).
   virtual std::vector<std::string> channels() const = 0;
-  int parameter_count() const { return static_cast<int>(channels().size()); }
+  /// channels().size(), counted once (a model is immutable): evaluate() asks for it per call.
+  int parameter_count() const {
+    int count = parameter_count_.load(std::memory_order_relaxed);
+    if (count < 0) {
+      count = static_cast<int>(channels().size());
+      parameter_count_.store(count, std::memory_order_relaxed);  // threads racing here store the same value
+    }
+    return count;
+  }
   /// False for a model whose name leaves its channel layout open until a fit or a file decides it (phong:auto
   /// before the lobe count is known): such a model can be fitted but no map can hold it.
   virtual bool storable() const { return true; }
@@ -63,6 +92,32 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// model can render them. ParameterMap::read refuses a map with any such texel rather than render garbage.
   virtual std::string check_parameters(std::span<const double> /*parameters*/) const { return {}; }
 
+  // What the model says about a texel, so that no caller guesses it from the family's name (docs/models.md).
+
+  /// True when the model has a term that does not depend on the direction (Phong's Kd): diffuse_part() gives it.
+  virtual bool has_diffuse_part() const { return false; }
+  /// That term's RGB radiance for a texel (has_diffuse_part() only; others: a broken invariant). Callers of models
+  /// without one take the lowest radiance over the hemisphere instead.
+  virtual Vec3d diffuse_part(std::span<const double> parameters) const;
+  /// The texel's lobes as the map stores them (a lobe with zero peak included), in the model's order; empty for a
+  /// model that has no lobes (SH, HSH, PTM). With has_diffuse_part(), pipeline's eval compares both with the
+  /// simulator's Phong-form truth.
+  virtual std::vector<LobeSummary> lobes(std::span<const double> /*parameters*/) const { return {}; }
+  /// The direction of the texel's largest radiance. The default: the direction of the lobe with the largest
+  /// peak_rgb sum when it is > 0, else the brightest (mean over RGB) direction of a 1-degree zenith x 2-degree
+  /// azimuth grid of the hemisphere by evaluate().
+  virtual Vec3d peak_direction(std::span<const double> parameters) const;
+
+  /// A plausible texel for tests and examples (parameter_count() values), different for different seeds: one that
+  /// check_parameters() accepts, with radiance of order 1 and well above 0 over the upper hemisphere (so that relative
+  /// comparisons, e.g. GLSL against evaluate(), are meaningful). Needs storable().
+  virtual std::vector<double> sample_parameters(unsigned seed) const = 0;
+  /// A storable model of the same form for tests (phong:auto: with 2 lobes); the default: this model.
+  virtual ModelPtr storable_sample() const { return shared_from_this(); }
+
+  /// The basis of the parameters for exporters (rti/export.hpp); the default: none.
+  virtual ModelBasis coefficient_basis() const { return {}; }
+
   /// GLSL source of `vec3 model(ivec2 t, vec3 v)`: the same radiance as evaluate() for texel t toward unit v, where
   /// `parameter(i)` is a GLSL float expression reading parameter i of texel t. The viewer compiles it into its
   /// fragment shader.
@@ -79,6 +134,16 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// residual at each sample of the fit made without it (closed form from the hat matrix for linear fits).
   virtual bool reports_leave_one_out() const { return false; }
 
+  /// The problem with the map fit options for this model (kInvalidArgument with the reason), checked by every fit
+  /// before it starts; a model checks the options it reads (its own MapFitOptions::model_options and the map-level
+  /// ones). The default refuses shared_lights (a pass that needs lobes).
+  virtual Status check_options(const MapFitOptions& options) const;
+  /// Every option this model's fit reads, as text (equal text for equal fits): appended to fit_options_fingerprint
+  /// (tiled_fit.hpp), which tells a restarted or distributed fit whether recorded tiles belong to it. An option
+  /// missing here would let a restart reuse tiles fitted otherwise, and `vdrig fit` rejects a command-line option
+  /// that leaves it unchanged. The default: "" (a model without options).
+  virtual std::string options_fingerprint(const MapFitOptions& /*options*/) const { return {}; }
+
   /// Fits every texel of the context's observation map into a parameter map of this model (or of the model the
   /// fit resolves it to, e.g. phong:auto with its lobe count). Checks the options that concern this model
   /// (kInvalidArgument with the reason); fills the quality channels (ParameterMap::set_quality, set_holdout_rms).
@@ -91,6 +156,9 @@ class ReflectanceModel : public std::enable_shared_from_this<ReflectanceModel> {
   /// position-dependent fit overrides it. `spec` is the map's.
   virtual Result<std::unique_ptr<ModelTiledFit>> tiled_fit(const MapFitOptions& options,
                                                            const ObservationMapSpec& spec) const;
+
+ private:
+  mutable std::atomic<int> parameter_count_{-1};
 };
 
 /// The texel fitter of a model whose texels are fitted independently: one per worker thread (it may keep work
@@ -143,6 +211,9 @@ class ModelRegistry {
     std::string syntax;  // how the name is written, for help texts and errors: "phong:K|phong:auto"
     /// Parses the text after "<family>:" ("" when the name has no ':'); kInvalidArgument with the reason.
     std::function<Result<ModelPtr>(const std::string& settings)> parse;
+    /// Full names that parse, one per form the syntax allows ("phong:1", "phong:auto:per-lobe-m", ...): the tests run
+    /// every model check on each (tests/fitting/test_models.cpp, tests/viewer/test_render_models.cpp).
+    std::vector<std::string> examples;
   };
 
   /// Adds a family; a family registered twice is a broken invariant (VDRIG_CHECK).
@@ -152,6 +223,8 @@ class ModelRegistry {
   Result<ModelPtr> parse(const std::string& name) const;
   /// Registered families, in registration order.
   std::vector<std::string> families() const;
+  /// Every family's examples (Entry::examples), in registration order.
+  std::vector<std::string> examples() const;
   /// "phong:K | phong:auto | ... | hsh:N": every family's syntax, for help texts.
   std::string syntax(const std::string& separator = " | ") const;
 

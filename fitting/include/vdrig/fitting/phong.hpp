@@ -84,6 +84,8 @@ struct PhongFitOptions {
   bool significant_lobes_only = true;
 
   bool is_valid(std::string* why) const;
+  /// Every field as text (model_options.hpp): equal text, equal options. A new field goes here too.
+  std::string fingerprint() const;
 };
 
 /// The level that bounds a lobe's support cone: cos(theta)^m >= kLobeSupportLevel.

@@ -4,9 +4,11 @@
 // Channels: kd.R/G/B, per lobe k = 0..K-1 ks<k>.R/G/B, r<k>.x/y/z and m<k> (per-lobe shininess), then m (shared
 // shininess); phong:auto also "lobes" (the count chosen for the texel; its unused lobes are zero, K = the largest
 // count chosen anywhere). Header attributes: vdrig.lobes (K), vdrig.shared_m (1 shared, 0 per lobe).
-// Its map fit honours MapFitOptions::phong and ::shared_lights (fit_map.hpp). With PhongFitOptions::lobe_support > 0
-// (the default) the map also has the channel "m_capped": per texel, the lobes whose shininess the sampling bounds, so
-// that the surface may be glossier there than the map says (phong.hpp, "Between the samples").
+// Its map fit honours MapFitOptions::model_options' PhongFitOptions (lobes and shininess sharing taken from the
+// name) and ::shared_lights (fit_map.hpp); its options_fingerprint is those and the light-estimation options. With
+// PhongFitOptions::lobe_support > 0 (the default) the map also has the channel "m_capped": per texel, the lobes whose
+// shininess the sampling bounds, so that the surface may be glossier there than the map says (phong.hpp, "Between the
+// samples").
 #pragma once
 
 #include "vdrig/fitting/model.hpp"
@@ -43,6 +45,14 @@ class PhongModel : public ReflectanceModel {
   Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
   std::string check_parameters(std::span<const double> parameters) const override;  // m >= 0
   std::string glsl(const std::function<std::string(int parameter)>& parameter) const override;
+  bool has_diffuse_part() const override { return true; }
+  Vec3d diffuse_part(std::span<const double> parameters) const override;              // Kd
+  std::vector<LobeSummary> lobes(std::span<const double> parameters) const override;  // all K, as stored
+  std::vector<double> sample_parameters(unsigned seed) const override;
+  ModelPtr storable_sample() const override { return storable() ? shared_from_this() : with_lobes(2); }
+  /// PhongFitOptions::is_valid, fixed directions against phong:auto and shared_lights, the light options.
+  Status check_options(const MapFitOptions& options) const override;
+  std::string options_fingerprint(const MapFitOptions& options) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
   /// Records hold every texel's fit at full precision; with shared lights a second pass refits the tiles after the
   /// lights are estimated from every tile's lobe rays, gathered in texel order as fit_map gathers them.

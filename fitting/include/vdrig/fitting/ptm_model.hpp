@@ -35,6 +35,8 @@ class PtmModel : public ReflectanceModel {
   Result<LinearFitOperator> fit_operator(const std::vector<Vec3d>& directions,
                                          const MapFitOptions& options) const override;
   bool reports_leave_one_out() const override { return true; }
+  std::vector<double> sample_parameters(unsigned seed) const override;
+  ModelBasis coefficient_basis() const override;  // kPtmRgb or kPtmLrgb
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
 
  private:

@@ -105,6 +105,8 @@ struct ShFitOptions {
 
   /// False with the reason for bands out of range, a negative/non-finite smoothing, or a window on LSOP/LS.
   bool is_valid(std::string* why = nullptr) const;
+  /// Every field as text (model_options.hpp): equal text, equal options.
+  std::string fingerprint() const;
 };
 
 /// c = P f for a fixed set of N sample directions: maps N sample values of one channel to K coefficients.

@@ -93,7 +93,8 @@ class TiledMapFit {
 };
 
 /// A text naming everything that decides a fit's result besides the observations: the model and every option
-/// (held-out views, Phong/SH/HSH/light-estimation options, min_observations; not threads or progress). Tile records
+/// (held-out views, min_observations, shared_lights, and what the model's options_fingerprint adds: its own options;
+/// not threads or progress). Tile records
 /// are tied to it (and to the observation file's identity) so that a resumed fit never mixes in another fit's tiles.
 std::string fit_options_fingerprint(const MapFitOptions& options);
 

@@ -9,11 +9,13 @@
 //
 // Counted pixels: those whose ray meets the surface rectangle and whose HDR value is exact (HDR mask 0: some exposure
 // saw them unclipped). They are split by the reference map's texel under the pixel, seen from the view:
-//   - Phong maps: specular term sum_k Ks_k max(0, v.r_k)^m_k against the total Kd + specular (RGB sums);
+//   - models with a diffuse part (ReflectanceModel::has_diffuse_part, e.g. Phong's Kd): the specular part is what the
+//     texel's radiance toward v exceeds its diffuse part, against the total (RGB sums);
 //   - any other model: the specular part is what the texel's radiance toward v exceeds its lowest radiance over
 //     kFloorDirections directions of the upper hemisphere (its Lambertian floor), against the total.
 // A pixel is "highlight" when specular > highlight_fraction x total, else "diffuse". The reference map is the first
-// Phong map of the comparison, else the first map, so every map of one comparison is scored on the same pixels.
+// map of the comparison with a diffuse part, else the first map, so every map of one comparison is scored on the same
+// pixels.
 #pragma once
 
 #include <filesystem>
@@ -38,7 +40,7 @@ struct CompareOptions {
   std::string command;  // the command line that asked for the comparison, recorded in compare.json (may be empty)
 };
 
-/// Lambertian-floor directions for non-Phong maps (see the file comment).
+/// Lambertian-floor directions for maps of models without a diffuse part (see the file comment).
 inline constexpr int kFloorDirections = 100;
 
 /// Mean and (population) standard deviation of |a - b| over pixel-channel samples, 8-bit codes.

@@ -5,8 +5,9 @@
 // Relative RMS of a texel over directions v_i and channels c: sqrt(sum (L_map - L_true)^2 / sum L_true^2) at the
 // texel centre (a map whose Kd is 1.1 times a Lambertian truth scores exactly 0.1). Texels whose footprint touches
 // more than one material (edges, marker rims) or lies outside the surface are in the error map but not in the
-// per-material statistics. Where the truth is of Phong form (Scene::phong_truth) and the map is a Phong map, the
-// Phong parameters are compared too.
+// per-material statistics. Where the truth is of Phong form (Scene::phong_truth) and the map's model has a diffuse
+// part and lobes (ReflectanceModel::has_diffuse_part, ::lobes: Phong, or any model that describes itself so), the
+// Phong parameters are compared too: Kd with the diffuse part, Ks and m with the strongest lobe's peak and exponent.
 #pragma once
 
 #include <filesystem>
@@ -37,8 +38,9 @@ struct RelativeRmsStats {
   double max = 0.0;
 };
 
-/// Mean relative Phong parameter errors of a material's texels: |Kd_fit - Kd_true| / |Kd_true| (RGB norms), the
-/// same for Ks of the fit's strongest lobe, and |m_fit - m_true| / m_true. ks_rel and shininess_rel are NaN when the
+/// Mean relative Phong parameter errors of a material's texels: |Kd_fit - Kd_true| / |Kd_true| (RGB norms, Kd_fit the
+/// model's diffuse part), the same for Ks of the fit's strongest lobe (LobeSummary::peak_rgb), and |m_fit - m_true| /
+/// m_true (LobeSummary::phong_exponent). ks_rel and shininess_rel are NaN when the
 /// truth has no lobe (Lambertian).
 struct PhongParameterErrors {
   double kd_rel = 0.0;

@@ -3,8 +3,9 @@
 // (`vdrig inspect`, and the overlay of `vdrig view` when a texel is clicked; docs/viewer.md):
 //
 //  - the curve: radiance along the great circle through the surface normal n and the texel's peak direction p
-//    (for a Phong map the strongest lobe's direction, i.e. the mirror of the light; for other models the direction
-//    of the model's largest radiance on the hemisphere). A point of the circle at signed angle a from the normal is
+//    (ReflectanceModel::peak_direction: for a model with lobes, e.g. Phong, the strongest lobe's direction, i.e. the
+//    mirror of the light; for other models the direction of the model's largest radiance on the hemisphere). A point of
+//    the circle at signed angle a from the normal is
 //        d(a) = cos(a) n + sin(a) u,  u = the unit horizontal vector toward p (x when p is the normal),
 //    a in [-90, 90] degrees, positive on p's side. Observations within `band_deg` of the circle's plane are drawn
 //    at their angle in that plane, a = atan2(d . u, d . n), over the model's curve;
