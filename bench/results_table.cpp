@@ -548,11 +548,12 @@ fitting::MapFitOptions between_options(const std::string& model, bool guarded) {
   if (guarded) {
     // vdrig fit's default smoothing for the least-squares basis fits (apps/vdrig/cmd_fit.cpp, default_smoothing).
     const std::string family = options.model->family();
-    options.sh.smoothing = options.hsh.smoothing = family == "sh-ls" || family == "hsh" ? 1e-4 : 0.0;
+    const double smoothing = family == "sh-ls" || family == "hsh" ? 1e-4 : 0.0;
+    options.model_options.edit<fitting::ShFitOptions>().smoothing = smoothing;
+    options.model_options.edit<fitting::HshFitOptions>().smoothing = smoothing;
   } else {
-    options.phong.lobe_support = 0;
-    options.phong.significant_lobes_only = false;
-    options.sh.smoothing = options.hsh.smoothing = 0.0;
+    options.model_options.edit<fitting::PhongFitOptions>().lobe_support = 0;
+    options.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = false;
   }
   return options;
 }
