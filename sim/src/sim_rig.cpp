@@ -66,8 +66,10 @@ void read_camera(Settings& parent, const json& section, SimConfig& c) {
   const int bits = static_cast<int>(s.integer("bits", 8, 8, 16));
   const std::string response = s.string("response", "s-curve", {"s-curve", "linear"});
   c.sensor.response = response == "linear" ? ResponseCurve::linear(bits) : ResponseCurve::s_curve(bits);
-  c.sensor.full_well_e = s.number("full_well_e", 0.0);
-  c.sensor.read_noise_e = s.number("read_noise_e", 0.0);
+  // A simulated camera has noise unless told otherwise: fits are judged on what a real capture gives them (shot
+  // noise of a small sensor's well, a few electrons of read noise), not on exact radiance (docs/sim.md).
+  c.sensor.full_well_e = s.number("full_well_e", kDefaultFullWellE);
+  c.sensor.read_noise_e = s.number("read_noise_e", c.sensor.full_well_e > 0 ? kDefaultReadNoiseE : 0.0);
   c.sensor.vignetting = s.number("vignetting", 0.0);
   parent.absorb(s);
 }

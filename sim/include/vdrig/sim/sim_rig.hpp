@@ -10,7 +10,7 @@
 //     "time_scale": 0 (0 = moves take no wall time, 1 = real time), "seed": 1,
 //     "camera": { "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 319.5, "cy": 239.5,
 //                 "k1": -0.08, "k2": 0.02, "p1": 0, "p2": 0, "k3": 0, "bits": 8,
-//                 "response": "s-curve" | "linear", "full_well_e": 0, "read_noise_e": 0, "vignetting": 0 },
+//                 "response": "s-curve" | "linear", "full_well_e": 20000, "read_noise_e": 8, "vignetting": 0 },
 //     "stage": { "pan_min_deg": -360, "pan_max_deg": 360, "tilt_min_deg": -5, "tilt_max_deg": 85,
 //                "speed_deg_s": 30, "accel_deg_s2": 60 },
 //     "faults": { see SimFaults } }
@@ -27,6 +27,11 @@
 #include "vdrig/sim/scene.hpp"
 
 namespace vdrig::sim {
+
+/// The simulated camera's sensor noise unless the config says otherwise ("full_well_e": 0 turns photon and read noise
+/// off): a small sensor's well, and read noise of a tenth of a code at 8 bits.
+inline constexpr double kDefaultFullWellE = 20000.0;
+inline constexpr double kDefaultReadNoiseE = 8.0;
 
 /// Injected device faults, for capture's recovery tests. Deterministic: each list holds 1-based call numbers of
 /// the device call that fails (the 3rd move_to is 3; home() is not counted as a move). What a failure does:
