@@ -13,7 +13,7 @@
 #include "mpi_job.hpp"
 #include "progress.hpp"
 #include "vdrig/cluster/distributed_fit.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"

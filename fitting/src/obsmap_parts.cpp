@@ -8,7 +8,7 @@
 #include "obsmap_checksum.hpp"
 #include "obsmap_format.hpp"
 #include "positional_file_io.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 

@@ -9,7 +9,7 @@
 #include "obsmap_format.hpp"
 #include "obsmap_zstd.hpp"
 #include "positional_file_io.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 

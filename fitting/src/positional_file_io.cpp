@@ -9,7 +9,7 @@
 #include <cstring>
 #include <string>
 
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 
 namespace vdrig::fitting {
 namespace fs = std::filesystem;

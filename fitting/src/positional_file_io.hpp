@@ -1,5 +1,5 @@
 // Positional (pread/pwrite) file I/O for the observation-map files, whose writer fills a header, tiles and an index at
-// offsets it computes, and whose reader shares one descriptor between threads. What core/file_io.hpp already has
+// offsets it computes, and whose reader shares one descriptor between threads. What core/file_write.hpp already has
 // (errno mapping, fsync, the atomic rename) is used from there; this file adds only what it lacks.
 #pragma once
 
@@ -50,7 +50,7 @@ Result<UniqueFd> open_for_reading(const std::filesystem::path& path);
 
 /// A new file `<path>.tmp-XXXXXX` beside `path` (mkstemp: never an existing file), with the mode of vdrig's other
 /// outputs (0666 less the umask): the temporary of an atomic replace, renamed over `path` by commit_temporary
-/// (core/file_io.hpp). `vdrig session check` knows this name pattern (docs/sessions.md).
+/// (core/file_write.hpp). `vdrig session check` knows this name pattern (docs/sessions.md).
 Result<UniqueFd> create_temporary_beside(const std::filesystem::path& path, std::filesystem::path* temporary);
 
 /// An anonymous scratch file in `dir`: created and unlinked at once, so the kernel frees it when it is closed or

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <string>
 
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/probe/probe_json.hpp"
 
 namespace vdrig::probe {

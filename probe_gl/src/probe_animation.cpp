@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <vector>
 
-#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/probe/animation.hpp"
 #include "vdrig/probe/cube_map.hpp"
