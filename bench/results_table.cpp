@@ -28,6 +28,7 @@
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
+#include "vdrig/pipeline/markup.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/texel_recording.hpp"
@@ -634,12 +635,6 @@ Section between_samples() {
   return s;
 }
 
-std::string escape(const std::string& text) {
-  std::string out;
-  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -667,8 +662,8 @@ int main(int argc, char** argv) {
   md += "tests/fitting/test_source_comparisons.cpp.\n";
   for (const Section& s : sections) {
     md += "\n## " + s.title + "\n\n" + s.notes + "\n\n| Setup | Ours | Source |\n|---|---|---|\n";
-    for (const Row& r : s.rows)
-      md += "| " + escape(r.setup) + " | " + escape(r.ours) + " | " + escape(r.source) + " |\n";
+    const auto cell = pipeline::escape_markdown_table_cell;
+    for (const Row& r : s.rows) md += "| " + cell(r.setup) + " | " + cell(r.ours) + " | " + cell(r.source) + " |\n";
   }
   std::fputs(md.c_str(), stdout);
   if (argc > 1) {

@@ -1,7 +1,4 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
-#include <sys/statvfs.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -17,14 +14,11 @@
 #include "mpi_job.hpp"
 #include "progress.hpp"
 #include "vdrig/cluster/distributed_fit.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
-#include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
-#include "vdrig/fitting/phong.hpp"
-#include "vdrig/fitting/sh.hpp"
-#include "vdrig/fitting/tiled_fit.hpp"
+#include "vdrig/pipeline/fit_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 
 namespace vdrig::app {
@@ -48,118 +42,6 @@ struct FitArgs {
   bool mpi = false;  // one rank of `mpirun -n N vdrig fit ... --mpi` (cluster/, docs/scale.md)
 };
 
-/// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
-/// checked before the fit, which can take hours, rather than when the map is written.
-Status check_output_writable(const fs::path& out) {
-  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec)
-    return make_error(ErrorCode::kInvalidArgument, "--out: cannot create folder " + dir.string() + ": " + ec.message());
-  if (fs::is_directory(out)) return make_error(ErrorCode::kInvalidArgument, "--out: " + out.string() + " is a folder");
-  std::string probe = (dir / ".vdrig-write-check-XXXXXX").string();
-  const int fd = ::mkstemp(probe.data());
-  if (fd < 0)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "--out: cannot write in " + dir.string() + ": " + std::strerror(errno));
-  ::close(fd);
-  ::unlink(probe.c_str());
-  return Status::ok();
-}
-
-/// What the map of `model` at S x T texels takes as float channels, at most: the model's parameters, the quality
-/// channels (rms, mpe, n), holdout and the Phong extras (m_capped, shared_lights). A model whose layout the fit
-/// decides (phong:auto: up to 4 lobes) counts as 32 parameters.
-size_t map_bytes_at_most(const fitting::ReflectanceModel& model, int S, int T) {
-  const size_t parameters = model.storable() ? model.channels().size() : std::max<size_t>(model.channels().size(), 32);
-  return (parameters + 7 + 3 + 2) * static_cast<size_t>(S) * static_cast<size_t>(T) * sizeof(float);
-}
-
-/// Refuses, before a fit that can take hours, a map that vdrig could not read back (ParameterMap::kMaxReadBytes:
-/// `render` and `view` refuse it) or that the disk cannot hold (its uncompressed size: an upper bound).
-Status check_map_fits(const fitting::ReflectanceModel& model, int S, int T, const fs::path& out) {
-  const size_t bytes = map_bytes_at_most(model, S, T);
-  auto mib = [](size_t b) { return std::to_string(b >> 20) + " MiB"; };
-  if (bytes > fitting::ParameterMap::kMaxReadBytes)
-    return make_error(ErrorCode::kInvalidArgument, "--res " + std::to_string(S) + "x" + std::to_string(T) + ": a " +
-                                                       model.name() + " map would take " + mib(bytes) + ", above the " +
-                                                       mib(fitting::ParameterMap::kMaxReadBytes) +
-                                                       " that vdrig render/view can read back; choose a smaller --res");
-  struct statvfs fs_stat {};
-  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  if (::statvfs(dir.c_str(), &fs_stat) == 0) {
-    const size_t free_bytes = static_cast<size_t>(fs_stat.f_bavail) * fs_stat.f_frsize;
-    if (free_bytes < bytes)
-      return make_error(ErrorCode::kNoSpace, "--out " + out.string() + ": the map may take up to " + mib(bytes) +
-                                                 " and " + dir.string() + " has " + mib(free_bytes) + " free");
-  }
-  return Status::ok();
-}
-
-/// The Laplacian penalty of a basis fit when --smoothing is not given: least-squares SH and HSH ring between the
-/// views without it (sh-ls:6 on the demo session: 21.8 % dense against 10.0 % at the views on glossy plastic; with
-/// 1e-4, 11.2 and 11.2; docs/models.md, "Between the samples"); the projection methods take none.
-double default_smoothing(const fitting::ReflectanceModel& model) {
-  return model.family() == "sh-ls" || model.family() == "hsh" ? 1e-4 : 0.0;
-}
-
-fitting::RingingWindow ringing_window(const std::string& name) {
-  return name == "hanning"   ? fitting::RingingWindow::kHanning
-         : name == "lanczos" ? fitting::RingingWindow::kLanczos
-                             : fitting::RingingWindow::kNone;
-}
-
-/// The models' own options from the command line (each model reads its own: fit_map.hpp, MapFitOptions::model_options).
-/// A flag the user gave must change what the model's fit reads, i.e. its options_fingerprint, or it does not apply to
-/// the model and is refused rather than silently ignored: `--residual relative` on an SH, HSH or PTM fit (their
-/// texels share one unweighted linear operator; only Phong weighs residuals), `--lobe-support` on a model without
-/// lobes, `--smoothing` on PTM.
-Status set_model_options(const FitArgs& a, fitting::MapFitOptions* options) {
-  auto& phong = options->model_options.edit<fitting::PhongFitOptions>();
-  phong.residual = a.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
-  phong.lobe_support = a.lobe_support;
-  phong.significant_lobes_only = !a.all_lobes;
-  // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
-  const double smoothing = a.smoothing.value_or(default_smoothing(*options->model));
-  const fitting::RingingWindow window = ringing_window(a.window);
-  auto& sh = options->model_options.edit<fitting::ShFitOptions>();
-  auto& hsh = options->model_options.edit<fitting::HshFitOptions>();
-  sh.smoothing = hsh.smoothing = smoothing;
-  sh.window = hsh.window = window;
-
-  // Whether the model reads an option: does its fingerprint change when the option does?
-  auto applies = [&](const std::function<void(fitting::MapFitOptions&)>& change) {
-    fitting::MapFitOptions other = *options;
-    change(other);
-    return fitting::fit_options_fingerprint(other) != fitting::fit_options_fingerprint(*options);
-  };
-  auto refuse = [&](const std::string& flag) {
-    return make_error(ErrorCode::kInvalidArgument, flag + " does not apply to " + options->model->family() + " models");
-  };
-  if (a.residual != "absolute" && !applies([](fitting::MapFitOptions& o) {
-        o.model_options.edit<fitting::PhongFitOptions>().residual = fitting::ResidualMode::kAbsolute;
-      }))
-    return refuse("--residual");
-  if (a.lobe_support != fitting::PhongFitOptions{}.lobe_support &&
-      !applies([](fitting::MapFitOptions& o) { ++o.model_options.edit<fitting::PhongFitOptions>().lobe_support; }))
-    return refuse("--lobe-support");
-  if (a.all_lobes && !applies([](fitting::MapFitOptions& o) {
-        o.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = true;
-      }))
-    return refuse("--all-lobes");
-  if (a.smoothing.value_or(0.0) != 0.0 && !applies([](fitting::MapFitOptions& o) {
-        o.model_options.edit<fitting::ShFitOptions>().smoothing += 1.0;
-        o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
-      }))
-    return refuse("--smoothing");
-  if (window != fitting::RingingWindow::kNone && !applies([](fitting::MapFitOptions& o) {
-        o.model_options.edit<fitting::ShFitOptions>().window = fitting::RingingWindow::kNone;
-        o.model_options.edit<fitting::HshFitOptions>().window = fitting::RingingWindow::kNone;
-      }))
-    return refuse("--window");
-  return Status::ok();
-}
-
 /// The command line that asks for this fit (recorded in the map, shown by `vdrig report`).
 std::string fit_command(const FitArgs& a) {
   std::string cmd = "vdrig fit " + a.session + " --model " + a.model;
@@ -177,23 +59,30 @@ std::string fit_command(const FitArgs& a) {
   return cmd;
 }
 
+pipeline::FitRequest fit_request(const FitArgs& a) {
+  pipeline::FitRequest r;
+  r.model = a.model;
+  r.holdout = a.holdout;
+  r.residual = a.residual;
+  r.shared_lights = a.shared_lights;
+  r.lobe_support = a.lobe_support;
+  r.all_lobes = a.all_lobes;
+  r.smoothing = a.smoothing;
+  r.window = a.window;
+  r.threads = a.threads;
+  return r;
+}
+
 Status run_fit(const FitArgs& a) {
-  auto model = fitting::parse_model(a.model);
-  if (!model) return model.error();
   auto res = parse_resolution(a.resolution);
   if (!res) return res.error();
-  if (a.residual != "absolute" && a.residual != "relative")
-    return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
-  if (a.threads < 0 || a.threads > fitting::MapFitOptions::kMaxThreads)
-    return make_error(ErrorCode::kInvalidArgument, "--threads must be in [0, " +
-                                                       std::to_string(fitting::MapFitOptions::kMaxThreads) +
-                                                       "] (0: all cores), got " + std::to_string(a.threads));
   auto session = capture::Session::open(a.session);
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
-  if (a.holdout < 0 || a.holdout >= n_views)
-    return make_error(ErrorCode::kInvalidArgument, "--holdout must be in [0, " + std::to_string(n_views - 1) + "]");
-  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(model.value()->name()) : fs::path(a.out);
+  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views);
+  if (!fit_options) return fit_options.error();
+  fitting::MapFitOptions& options = fit_options.value();
+  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
   cluster::Comm* comm = nullptr;
   if (a.mpi) {
     auto world = cluster::world();
@@ -203,18 +92,8 @@ Status run_fit(const FitArgs& a) {
   const bool lead = !comm || comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
   // The default output is a file of the session (maps/): never reached through a link planted in the session.
   if (a.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
-  if (lead) VDRIG_TRY(check_output_writable(out));
-  if (lead && a.obsmap.empty()) VDRIG_TRY(check_map_fits(*model.value(), res->first, res->second, out));
-
-  // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
-  // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
-  // them out of the fit itself.
-  fitting::MapFitOptions options;
-  options.model = model.value();
-  options.threads = a.threads;
-  options.shared_lights = a.shared_lights;
-  VDRIG_TRY(set_model_options(a, &options));
-  options.held_out = pipeline::spread_holdout_views(n_views, a.holdout);
+  if (lead) VDRIG_TRY(pipeline::check_fit_output_writable(out));
+  if (lead && a.obsmap.empty()) VDRIG_TRY(pipeline::check_map_fits(*options.model, res->first, res->second, out));
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever --res is.
@@ -288,22 +167,10 @@ Status run_fit(const FitArgs& a) {
   map->image().string_attributes["vdrig.command"] = fit_command(a);
   VDRIG_TRY(map->write(out));
 
-  // Summary: median RMS over texels with a fit (and held-out RMS when views were held out).
-  auto median_of = [&](const char* prefix) {
-    std::vector<float> v;
-    for (int t = 0; t < map->texels_t(); ++t)
-      for (int s = 0; s < map->texels_s(); ++s)
-        if (map->at("n", s, t) > 0)
-          v.push_back((map->at(std::string(prefix) + "R", s, t) + map->at(std::string(prefix) + "G", s, t) +
-                       map->at(std::string(prefix) + "B", s, t)) /
-                      3.0f);
-    if (v.empty()) return 0.0f;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
+  const pipeline::FitSummary summary = pipeline::summarize_fit(map.value());
   std::printf("wrote %s (%s, %dx%d texels); median RMS %.4g", out.c_str(), map->model().name().c_str(), map->texels_s(),
-              map->texels_t(), median_of("rms."));
-  if (map->has("holdout.R")) std::printf(", median held-out RMS %.4g", median_of("holdout."));
+              map->texels_t(), summary.median_rms);
+  if (summary.median_holdout_rms) std::printf(", median held-out RMS %.4g", *summary.median_holdout_rms);
   std::printf("\n");
   return Status::ok();
 }

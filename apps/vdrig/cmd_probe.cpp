@@ -4,11 +4,6 @@
 // `vdrig probe fuse A.exr:X,Y,Z B.exr:X,Y,Z ... --room ... --at X,Y,Z`: fuse probes on a box proxy at a new position.
 // `vdrig probe animate ROOM.json --path path.json --out frames/`: spheres moving along a path, lit per frame by soft
 // lights of the probe fused on the GPU at their position (probe_gl), as PNG frames (and an MP4 with ffmpeg).
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -29,13 +24,14 @@
 #include "vdrig/probe/irradiance_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/object_path.hpp"
+#include "vdrig/probe/path_lights.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/probe_json.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
 #include "vdrig/probe/shading.hpp"
 #include "vdrig/probe/soft_lights.hpp"
-#include "vdrig/probe_gl/gpu_fusion.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
+#include "vdrig/probe/video.hpp"
+#include "vdrig/probe_gl/probe_animation.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -335,21 +331,7 @@ Status run_path(const PathArgs& a) {
   if (!probes) return probes.error();
   probe::FusionOptions o;
   o.height = a.height;
-  std::error_code ec;
-  std::filesystem::create_directories(a.out, ec);
-  if (ec) return make_error(ErrorCode::kIo, "cannot create " + a.out + ": " + ec.message());
-  const std::vector<Vec3d> positions = probe::sample_path(*path, a.frames);
-  for (int f = 0; f < a.frames; ++f) {
-    auto fused = probe::fuse(*probes, positions[f], *room, o);
-    if (!fused) return fused.error();
-    const probe::IrradianceModel m = probe::IrradianceModel::build(*fused, *method);
-    char name[32];
-    std::snprintf(name, sizeof name, "frame_%04d", f);
-    const std::string base = (std::filesystem::path(a.out) / name).string();
-    const std::string source = "fused at frame " + std::to_string(f);
-    VDRIG_TRY(write_file_atomic(base + ".lights.json", probe::lights_to_json({source, m.lights()})));
-    if (m.sh9()) VDRIG_TRY(write_file_atomic(base + ".sh9.json", probe::sh9_to_json({source, *m.sh9()})));
-  }
+  VDRIG_TRY(probe::write_path_lights(*probes, *room, probe::sample_path(*path, a.frames), *method, o, a.out));
   std::printf("wrote %d frames of %s lights to %s\n", a.frames, a.method.c_str(), a.out.c_str());
   return Status::ok();
 }
@@ -363,85 +345,8 @@ struct AnimateArgs {
   bool design_notes = false, no_mp4 = false;
 };
 
-Result<std::string> read_text(const std::string& file, const std::string& what) {
-  std::ifstream in(file);
-  if (!in) return make_error(ErrorCode::kNotFound, what + " " + file + " cannot be read");
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-// The probes a room file names, relative names resolved against the file's folder, placed where it says.
-Result<std::vector<probe::Probe>> load_room_probes(const std::string& room_file, const probe::RoomDocument& room,
-                                                   bool design_notes) {
-  const std::filesystem::path base = std::filesystem::path(room_file).parent_path();
-  std::vector<probe::Probe> probes;
-  for (size_t k = 0; k < room.probes.size(); ++k) {
-    const probe::RoomProbe& rp = room.probes[k];
-    const std::filesystem::path file =
-        std::filesystem::path(rp.file).is_absolute() ? std::filesystem::path(rp.file) : base / rp.file;
-    auto p = load(file.string(), design_notes);
-    if (!p) return make_error(p.error().code, room_file + ": probe " + std::to_string(k) + ": " + p.error().message);
-    if (rp.has_position) p->position_mm = rp.position_mm;
-    probes.push_back(std::move(p.value()));
-  }
-  return probes;
-}
-
-// The default camera: from the -y side, 35 degrees above the horizontal, looking at the middle of the path's
-// bounding box (at a quarter of its height), far enough for the box and the spheres to fit the field of view.
-probe::SceneCamera auto_camera(const std::vector<Vec3d>& positions, double radius, double fov_deg) {
-  Vec3d lo = positions[0], hi = positions[0];
-  for (const Vec3d& p : positions) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  probe::SceneCamera c;
-  c.look_at_mm = Vec3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.25 * (lo.z() + hi.z()));
-  const double half = 0.5 * std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 3 * radius;
-  const double distance = 1.1 * half / std::tan(0.5 * deg_to_rad(fov_deg));
-  const double elevation = deg_to_rad(35);
-  c.position_mm = c.look_at_mm + distance * Vec3d(0, -std::cos(elevation), std::sin(elevation));
-  c.fov_deg = fov_deg;
-  return c;
-}
-
-// An executable named `name` in a folder of PATH, or empty.
-std::string find_on_path(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  if (!path) return {};
-  std::stringstream ss(path);
-  std::string dir;
-  while (std::getline(ss, dir, ':')) {
-    if (dir.empty()) continue;
-    const std::string candidate = dir + "/" + name;
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
-  }
-  return {};
-}
-
-// Runs argv (no shell); its exit status, or -1 when it could not start.
-int run_program(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawn(&pid, args[0].c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string triple_json(const Vec3d& v) {
-  char buf[128];
-  std::snprintf(buf, sizeof buf, "[%.6g, %.6g, %.6g]", v.x(), v.y(), v.z());
-  return buf;
-}
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// Everything is checked (method, room, probes, path inside the room for both spheres, camera, OpenGL) before the
-// first frame is written.
+// Argument checks that name the options; the rest (room, probes, path, camera, OpenGL) is checked by
+// render_probe_animation before the first frame is written.
 Status run_animate(const AnimateArgs& a) {
   auto method = probe::parse_irradiance_method(a.method);
   if (!method) return usage("--method: " + method.error().message);
@@ -453,133 +358,47 @@ Status run_animate(const AnimateArgs& a) {
                  std::to_string(a.shrink));
   if (!(a.fps > 0)) return usage("--fps must be > 0");
   if (a.gamma < 0 || !std::isfinite(a.gamma)) return usage("--gamma must be >= 0 (0: automatic from frame 0)");
-
-  auto room_text = read_text(a.room, "room file");
-  if (!room_text) return room_text.error();
-  auto room = probe::room_from_json(*room_text);
-  if (!room) return make_error(room.error().code, a.room + ": " + room.error().message);
-  const probe::ProxyBox& box = room->room;
-  auto probes = load_room_probes(a.room, *room, a.design_notes);
-  if (!probes) return probes.error();
-  probe::FusionOptions fusion;
-  VDRIG_TRY(probe::validate_fusion_inputs(*probes, box, fusion));
-
-  auto path_text = read_text(a.path, "path file");
-  if (!path_text) return path_text.error();
-  auto path = probe::path_from_json(*path_text);
-  if (!path) return make_error(path.error().code, a.path + ": " + path.error().message);
-  VDRIG_TRY(probe::validate_path(*path, box, a.radius_mm));
-  const std::vector<Vec3d> positions = probe::sample_path(*path, a.frames);
-
-  probe::SceneCamera camera = auto_camera(positions, a.radius_mm, a.fov_deg);
+  probe_gl::ProbeAnimationSettings settings;
+  settings.room_file = a.room;
+  settings.path_file = a.path;
+  settings.out_dir = a.out;
+  settings.frames = a.frames;
+  settings.soft_lights = method->light_count;
+  settings.width = a.width;
+  settings.height = a.height;
+  settings.cube_size = a.cube;
+  settings.shrink = a.shrink;
+  settings.sphere_radius_mm = a.radius_mm;
+  settings.shadow_lights = a.shadow_lights;
+  settings.samples_per_axis = a.samples;
+  settings.fov_deg = a.fov_deg;
+  settings.gamma = a.gamma;
+  settings.design_notes = a.design_notes;
   if (!a.camera.empty()) {
     auto v = parse_numbers(a.camera, 3, "--camera");
     if (!v) return v.error();
-    camera.position_mm = Vec3d((*v)[0], (*v)[1], (*v)[2]);
+    settings.camera_mm = Vec3d((*v)[0], (*v)[1], (*v)[2]);
   }
   if (!a.look_at.empty()) {
     auto v = parse_numbers(a.look_at, 3, "--look-at");
     if (!v) return v.error();
-    camera.look_at_mm = Vec3d((*v)[0], (*v)[1], (*v)[2]);
+    settings.look_at_mm = Vec3d((*v)[0], (*v)[1], (*v)[2]);
   }
-  camera.width = a.width;
-  camera.height = a.height;
-  std::string why;
-  if (!camera.is_valid(&why)) return usage(why);
-  probe::AnimationScene scene;
-  scene.sphere_radius_mm = a.radius_mm;
-  scene.ground_z_mm = box.min_mm.z();
-  scene.ground_min_mm = box.min_mm;
-  scene.ground_max_mm = box.max_mm;
-  scene.shadow_lights = a.shadow_lights;
-  scene.samples_per_axis = a.samples;
-  if (!scene.is_valid(&why)) return usage(why);
-  // The glossy sphere rolls beside the diffuse one, 2.6 radii to the camera's right; it must stay in the room too.
-  const Vec3d right = (camera.look_at_mm - camera.position_mm).cross(Vec3d::UnitZ()).normalized();
-  std::vector<Vec3d> glossy;
-  for (int f = 0; f < a.frames; ++f) {
-    glossy.push_back(positions[f] + 2.6 * a.radius_mm * right);
-    if (!box.contains(glossy.back(), a.radius_mm))
-      return usage("the glossy sphere (2.6 radii right of the path, seen from the camera) leaves the room at frame " +
-                   std::to_string(f) + ", at " + triple_json(glossy.back()) + " mm");
-  }
-
-  auto ctx = viewer::GlContext::create(16, 16, false);
-  if (!ctx) return ctx.error();
-  auto gpu = probe_gl::GpuFusion::create(*probes, box, a.cube, fusion);
-  if (!gpu) return gpu.error();
-  std::error_code ec;
-  std::filesystem::create_directories(a.out, ec);
-  if (ec) return make_error(ErrorCode::kIo, "cannot create " + a.out + ": " + ec.message());
-
-  probe::SoftLightOptions soft_options;
-  soft_options.count = method->light_count;
-  double gamma = a.gamma;
-  double t_fuse = 0, t_lights = 0, t_render = 0;
-  std::string frames_json;
-  for (int f = 0; f < a.frames; ++f) {
-    auto t0 = std::chrono::steady_clock::now();
-    auto cube = gpu.value()->fuse(positions[f]);
-    if (!cube) return cube.error();
-    t_fuse += ms_since(t0);
-    t0 = std::chrono::steady_clock::now();
-    probe::FrameLighting lighting;
-    // Lights from the cube shrunk (16^2 faces by default: 0.42 % mean error against the exact convolution of the
-    // full cube, 0.37 % at 32^2 for 8x the time; test_gpu_fusion); the glossy reflection from 32^2 faces.
-    lighting.soft = probe::soft_lights(probe::downsample_cube(*cube, a.shrink), soft_options);
-    lighting.environment = probe::downsample_cube(*cube, a.cube % 4 == 0 ? 4 : 1);
-    t_lights += ms_since(t0);
-    t0 = std::chrono::steady_clock::now();
-    const cv::Mat radiance = probe::render_animation_frame(camera, scene, positions[f], glossy[f], lighting);
-    if (f == 0 && gamma == 0) gamma = probe::auto_gamma(radiance);  // fixed from frame 0: no exposure flicker
-    char name[32];
-    std::snprintf(name, sizeof name, "frame_%04d.png", f);
-    VDRIG_TRY(write_png(std::filesystem::path(a.out) / name, probe::tone_map_srgb8(radiance, gamma)));
-    t_render += ms_since(t0);
-    std::string shadow;
-    for (int k : probe::strongest_lights(lighting.soft.lights, a.shadow_lights)) {
-      const probe::DirectionalLight& l = lighting.soft.lights[k];
-      shadow += std::string(shadow.empty() ? "" : ", ") + "{\"direction\": " + triple_json(l.direction) +
-                ", \"power\": " + triple_json(l.power) + "}";
-    }
-    frames_json += std::string(f ? ",\n" : "") + "    {\"file\": \"" + name +
-                   "\", \"diffuse_centre_mm\": " + triple_json(positions[f]) +
-                   ", \"glossy_centre_mm\": " + triple_json(glossy[f]) + ", \"strongest_lights\": [" + shadow + "]}";
-  }
-  char head[1024];
-  std::snprintf(
-      head, sizeof head,
-      "{\n  \"format\": \"vdrig.probe.animation\",\n  \"version\": 1,\n  \"method\": \"%s\",\n  "
-      "\"gamma\": %.9g,\n  \"sphere_radius_mm\": %.9g,\n  \"diffuse_albedo\": %s,\n  \"ground_albedo\": %s,\n  "
-      "\"camera\": "
-      "{\"position_mm\": %s, \"look_at_mm\": %s, \"fov_deg\": %.9g, \"width\": %d, \"height\": %d},\n  "
-      "\"ground_z_mm\": %.9g,\n  \"frames\": [\n",
-      a.method.c_str(), gamma, a.radius_mm, triple_json(scene.diffuse_albedo).c_str(),
-      triple_json(scene.ground_albedo).c_str(), triple_json(camera.position_mm).c_str(),
-      triple_json(camera.look_at_mm).c_str(), camera.fov_deg, camera.width, camera.height, scene.ground_z_mm);
-  VDRIG_TRY(write_file_atomic((std::filesystem::path(a.out) / "frames.json").string(),
-                              std::string(head) + frames_json + "\n  ]\n}\n"));
+  auto done = probe_gl::render_probe_animation(settings);
+  if (!done) return done.error();
   std::printf(
       "wrote %d frames (%d x %d) to %s: per frame GPU fusion + read-back %.1f ms, soft:%d lights %.1f ms, "
       "render + PNG %.1f ms\n",
-      a.frames, a.width, a.height, a.out.c_str(), t_fuse / a.frames, method->light_count, t_lights / a.frames,
-      t_render / a.frames);
+      done->frames, a.width, a.height, a.out.c_str(), done->fuse_ms, method->light_count, done->lights_ms,
+      done->render_ms);
   if (a.no_mp4) return Status::ok();
-  const std::string ffmpeg = find_on_path("ffmpeg");
-  if (ffmpeg.empty()) {
+  auto mp4 = probe::encode_frames_mp4(a.out, a.fps);
+  if (!mp4 && mp4.error().code == ErrorCode::kNotFound) {
     std::printf("ffmpeg not on PATH: no MP4 (the PNG frames are complete)\n");
     return Status::ok();
   }
-  const std::string mp4 = (std::filesystem::path(a.out) / "animation.mp4").string();
-  char fps[32];
-  std::snprintf(fps, sizeof fps, "%.6g", a.fps);
-  const int rc = run_program({ffmpeg, "-y", "-loglevel", "error", "-framerate", fps, "-i",
-                              (std::filesystem::path(a.out) / "frame_%04d.png").string(), "-vf",
-                              "scale=trunc(iw/2)*2:trunc(ih/2)*2", "-pix_fmt", "yuv420p", mp4});
-  if (rc != 0)
-    return make_error(ErrorCode::kIo, "ffmpeg failed (exit " + std::to_string(rc) + ") writing " + mp4 +
-                                          "; the PNG frames in " + a.out + " are complete");
-  std::printf("wrote %s (%s frames/s)\n", mp4.c_str(), fps);
+  if (!mp4) return mp4.error();
+  std::printf("wrote %s (%.6g frames/s)\n", mp4->c_str(), a.fps);
   return Status::ok();
 }
 

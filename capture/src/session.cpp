@@ -13,8 +13,8 @@
 #include <type_traits>
 
 #include "session_files.hpp"
-#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 

@@ -11,7 +11,7 @@
 
 #include "session_files.hpp"
 #include "vdrig/capture/session.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::capture {

@@ -6,7 +6,7 @@
 
 #include <cerrno>
 
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 
 namespace vdrig::capture::detail {
 namespace fs = std::filesystem;

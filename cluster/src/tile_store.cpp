@@ -6,7 +6,7 @@
 #include <fstream>
 #include <iterator>
 
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 
 namespace vdrig::cluster {

@@ -9,7 +9,7 @@
 
 #include "surface_rays.hpp"
 #include "vdrig/calib/hdr.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/parameter_map.hpp"

@@ -7,8 +7,8 @@
 
 #include "ground_truth.hpp"
 #include "vdrig/calib/hdr.hpp"
-#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::pipeline {

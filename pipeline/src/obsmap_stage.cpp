@@ -4,7 +4,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "vdrig/calib/hdr.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 

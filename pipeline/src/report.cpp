@@ -11,12 +11,13 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "html.hpp"
 #include "vdrig/calib/extrinsics.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/core/camera.hpp"
-#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
@@ -27,175 +28,14 @@ namespace vdrig::pipeline {
 namespace fs = std::filesystem;
 namespace {
 
-// ---- HTML and image helpers ----
-
-std::string escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-std::string format(const char* fmt, double value) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, value);
-  return buf;
-}
-
-std::string base64(const std::vector<uchar>& bytes) {
-  static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    const uint32_t n = (uint32_t(bytes[i]) << 16) | (i + 1 < bytes.size() ? uint32_t(bytes[i + 1]) << 8 : 0) |
-                       (i + 2 < bytes.size() ? uint32_t(bytes[i + 2]) : 0);
-    out += kAlphabet[(n >> 18) & 63];
-    out += kAlphabet[(n >> 12) & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? kAlphabet[n & 63] : '=';
-  }
-  return out;
-}
-
-/// An <img> of an 8-bit image (BGR or grey) as an inline PNG.
-std::string img_tag(const cv::Mat& image, const std::string& alt) {
-  std::vector<uchar> png;
-  cv::imencode(".png", image, png);
-  return "<img alt=\"" + escape(alt) + "\" width=\"" + std::to_string(image.cols) + "\" height=\"" +
-         std::to_string(image.rows) + "\" src=\"data:image/png;base64," + base64(png) + "\">";
-}
-
-std::string missing(const std::string& what) { return "<p class=\"missing\">Missing: " + what + "</p>\n"; }
-
-/// Viridis (OpenCV's table) at t in [0, 1], as "#rrggbb".
-std::string viridis(double t) {
-  static const cv::Mat table = [] {
-    cv::Mat ramp(1, 256, CV_8UC1);
-    for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
-    cv::Mat colours;
-    cv::applyColorMap(ramp, colours, cv::COLORMAP_VIRIDIS);
-    return colours;
-  }();
-  const int i = std::clamp(static_cast<int>(std::lround(std::clamp(t, 0.0, 1.0) * 255)), 0, 255);
-  const cv::Vec3b bgr = table.at<cv::Vec3b>(0, i);
-  char buf[8];
-  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", bgr[2], bgr[1], bgr[0]);
-  return buf;
-}
-
-/// A horizontal colour bar (viridis) from lo to hi, its label above; `hi_clipped`: values above hi are shown as hi.
-std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped = false) {
-  static int id = 0;
-  const std::string gid = "cb" + std::to_string(++id);
-  std::string svg =
-      "<svg class=\"colourbar\" width=\"260\" height=\"42\" viewBox=\"0 0 260 42\"><defs><linearGradient "
-      "id=\"" +
-      gid + "\">";
-  for (int k = 0; k <= 8; ++k)
-    svg += "<stop offset=\"" + format("%.3f", k / 8.0) + "\" stop-color=\"" + viridis(k / 8.0) + "\"/>";
-  svg += "</linearGradient></defs><text x=\"5\" y=\"11\" font-size=\"11\">" + escape(label) + "</text>";
-  svg += "<rect x=\"5\" y=\"15\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
-  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape(format("%.4g", lo)) + "</text>";
-  svg += "<text x=\"255\" y=\"40\" font-size=\"11\" text-anchor=\"end\">" + std::string(hi_clipped ? "&#8805; " : "") +
-         escape(format("%.4g", hi)) + "</text>";
-  return svg + "</svg>";
-}
-
-/// A false-colour image of a float plane (NaN shown grey), scaled up (nearest) to at least min_width, with its bar.
-/// The scale runs from the minimum to the 99th percentile, so that a few outliers do not darken the whole map.
-std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width) {
-  cv::Mat finite = plane == plane;  // not NaN
-  std::vector<float> values;
-  for (int y = 0; y < plane.rows; ++y)
-    for (int x = 0; x < plane.cols; ++x)
-      if (finite.at<uint8_t>(y, x)) values.push_back(plane.at<float>(y, x));
-  double lo = 0, hi = 0, max = 0;
-  if (!values.empty()) {
-    std::sort(values.begin(), values.end());
-    lo = values.front(), max = values.back();
-    hi = values[std::min(values.size() - 1, static_cast<size_t>(0.99 * double(values.size())))];
-  }
-  cv::Mat scaled;
-  plane.convertTo(scaled, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0.0);
-  cv::Mat colours;
-  cv::applyColorMap(scaled, colours, cv::COLORMAP_VIRIDIS);
-  colours.setTo(cv::Scalar(128, 128, 128), ~finite);
-  const int factor = std::max(1, (min_width + plane.cols - 1) / plane.cols);
-  cv::resize(colours, colours, {}, factor, factor, cv::INTER_NEAREST);
-  return "<figure>" + img_tag(colours, label) + "<figcaption>" + colour_bar(lo, hi, label, max > hi) +
-         "</figcaption></figure>";
-}
-
-// ---- Polar plots of the hemisphere ----
-
-struct PolarPoint {
-  Vec3d direction;
-  std::string fill;  // "none" for a hollow point
-  double radius_px = 4;
-  std::string title;
-};
-
-/// The upper hemisphere seen from above: radius proportional to the zenith angle (0 at the centre, 90 deg at the rim),
-/// azimuth counter-clockwise from +x (to the right). `route` (may be empty) is drawn as a polyline under the points.
-std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<Vec3d>& route, int size_px = 360) {
-  const double c = size_px / 2.0, r = size_px / 2.0 - 18;
-  auto xy = [&](const Vec3d& d) {
-    const double zenith = std::acos(std::clamp(d.z(), -1.0, 1.0));
-    const double azimuth = std::atan2(d.y(), d.x());
-    const double rho = r * zenith / (kPi / 2);
-    return std::make_pair(c + rho * std::cos(azimuth), c - rho * std::sin(azimuth));
-  };
-  std::string svg = "<svg class=\"polar\" width=\"" + std::to_string(size_px) + "\" height=\"" +
-                    std::to_string(size_px) + "\" viewBox=\"0 0 " + std::to_string(size_px) + " " +
-                    std::to_string(size_px) + "\">";
-  for (int ring = 1; ring <= 3; ++ring)
-    svg += "<circle cx=\"" + format("%.1f", c) + "\" cy=\"" + format("%.1f", c) + "\" r=\"" +
-           format("%.1f", r * ring / 3) + "\" fill=\"none\" stroke=\"#bbb\"/>";
-  svg += "<line x1=\"" + format("%.1f", c - r) + "\" y1=\"" + format("%.1f", c) + "\" x2=\"" + format("%.1f", c + r) +
-         "\" y2=\"" + format("%.1f", c) + "\" stroke=\"#ddd\"/><line x1=\"" + format("%.1f", c) + "\" y1=\"" +
-         format("%.1f", c - r) + "\" x2=\"" + format("%.1f", c) + "\" y2=\"" + format("%.1f", c + r) +
-         "\" stroke=\"#ddd\"/>";
-  svg += "<text x=\"" + format("%.1f", c + r + 2) + "\" y=\"" + format("%.1f", c - 3) +
-         "\" font-size=\"10\" text-anchor=\"end\">+x</text><text x=\"" + format("%.1f", c + 3) +
-         "\" y=\"12\" "
-         "font-size=\"10\">+y</text><text x=\"" +
-         format("%.1f", c + r / 3 + 2) + "\" y=\"" + format("%.1f", c + 11) +
-         "\" font-size=\"9\" fill=\"#888\">30&#176;</text><text x=\"" + format("%.1f", c + r + 2) + "\" y=\"" +
-         format("%.1f", c + 11) + "\" font-size=\"9\" fill=\"#888\">90&#176;</text>";
-  if (route.size() > 1) {
-    svg +=
-        "<polyline class=\"route\" fill=\"none\" stroke=\"#e07020\" stroke-width=\"1\" stroke-opacity=\"0.7\" "
-        "points=\"";
-    for (const Vec3d& d : route) {
-      const auto [x, y] = xy(d);
-      svg += format("%.1f", x) + "," + format("%.1f", y) + " ";
-    }
-    svg += "\"/>";
-  }
-  for (const PolarPoint& p : points) {
-    const auto [x, y] = xy(p.direction);
-    svg += "<circle cx=\"" + format("%.1f", x) + "\" cy=\"" + format("%.1f", y) + "\" r=\"" +
-           format("%.1f", p.radius_px) + "\" fill=\"" + p.fill + "\" stroke=\"" + (p.fill == "none" ? "#888" : "#333") +
-           "\" stroke-width=\"0.5\"><title>" + escape(p.title) + "</title></circle>";
-  }
-  return svg + "</svg>";
-}
+using html::colour_bar;
+using html::false_colour;
+using html::img_tag;
+using html::missing;
+using html::polar_plot;
+using html::PolarPoint;
+using html::section;
+using html::viridis;
 
 // ---- Sections ----
 
@@ -204,10 +44,6 @@ struct ReportData {
   const ReportOptions* options = nullptr;
   std::vector<fs::path> map_files;  // SESSION/maps/*.exr, sorted
 };
-
-std::string section(const std::string& id, const std::string& title, const std::string& body) {
-  return "<section id=\"" + id + "\">\n<h2>" + escape(title) + "</h2>\n" + body + "</section>\n";
-}
 
 /// Views in the order they were captured (by the sequence number of their first journaled frame).
 std::vector<int> capture_order(const capture::Session& session) {
@@ -233,13 +69,13 @@ std::string coverage_section(const ReportData& d) {
     const int k = v.index >= 0 && v.index < int(rank.size()) ? rank[v.index] : -1;
     const double zenith_deg = std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi;
     const double azimuth_deg = std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi;
-    std::string title = "view " + std::to_string(v.index) + ": azimuth " + format("%.1f", azimuth_deg) +
-                        " deg, zenith " + format("%.1f", zenith_deg) + " deg, ";
+    std::string title = "view " + std::to_string(v.index) + ": azimuth " + html::number("%.1f", azimuth_deg) +
+                        " deg, zenith " + html::number("%.1f", zenith_deg) + " deg, ";
     title += k >= 0 ? "captured " + std::to_string(k + 1) + "th" : "not captured";
     points.push_back(
         {v.direction, k >= 0 ? viridis(order.size() > 1 ? double(k) / (order.size() - 1) : 0.0) : "none", 4.0, title});
   }
-  std::string body = "<p>Scheme <code>" + escape(m.scheme) + "</code>: " + std::to_string(order.size()) + " of " +
+  std::string body = "<p>Scheme <code>" + escape_html(m.scheme) + "</code>: " + std::to_string(order.size()) + " of " +
                      std::to_string(m.views.size()) +
                      " planned views captured. Seen from above: the centre is the surface normal, the rim 90&#176; "
                      "from it; the orange line is the planned route, filled points the captured views coloured by "
@@ -280,7 +116,7 @@ std::string views_section(const ReportData& d) {
     int n_saturated = 0;
     int64_t first = 0, last = 0;
     for (const auto& f : frames) {
-      exposures += (exposures.empty() ? "" : ", ") + format("%.4g", f.exposure_s * 1000.0);
+      exposures += (exposures.empty() ? "" : ", ") + html::number("%.4g", f.exposure_s * 1000.0);
       n_saturated += f.saturated;
       first = first == 0 ? f.timestamp_ns : std::min(first, f.timestamp_ns);
       last = std::max(last, f.timestamp_ns);
@@ -289,25 +125,25 @@ std::string views_section(const ReportData& d) {
     if (clipped_fraction[i] >= 0) {
       ++merged;
       clipped_views += clipped_fraction[i] > 0;
-      clipped = format("%.3f", 100.0 * clipped_fraction[i]);
+      clipped = html::number("%.3f", 100.0 * clipped_fraction[i]);
     } else if (clipped_fraction[i] == -2.0) {
       clipped = "unreadable";
     }
     rows += "<tr" + std::string(s.view_complete(v.index) ? "" : " class=\"incomplete\"") + "><td>" +
             std::to_string(v.index) + "</td><td>" +
-            format("%.1f", std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi) + "</td><td>" +
-            format("%.1f", std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi) + "</td><td>" +
+            html::number("%.1f", std::atan2(v.direction.y(), v.direction.x()) * 180 / kPi) + "</td><td>" +
+            html::number("%.1f", std::acos(std::clamp(v.direction.z(), -1.0, 1.0)) * 180 / kPi) + "</td><td>" +
             (exposures.empty() ? "not captured" : exposures) + "</td><td>" +
             (frames.empty() ? "" : std::to_string(n_saturated) + " of " + std::to_string(frames.size())) + "</td><td>" +
-            clipped + "</td><td>" + (frames.empty() ? "" : format("%.2f", (first - t0) * 1e-9)) + "</td><td>" +
-            (frames.empty() ? "" : format("%.3f", (last - first) * 1e-9)) + "</td></tr>\n";
+            clipped + "</td><td>" + (frames.empty() ? "" : html::number("%.2f", (first - t0) * 1e-9)) + "</td><td>" +
+            (frames.empty() ? "" : html::number("%.3f", (last - first) * 1e-9)) + "</td></tr>\n";
   }
-  std::string body = "<p>Bracket <code>" + escape(s.manifest().bracket) +
+  std::string body = "<p>Bracket <code>" + escape_html(s.manifest().bracket) +
                      "</code>. <em>Saturated frames</em>: frames of the bracket with a pixel at the maximum code; "
                      "<em>clipped</em>: share of the merged HDR pixels saturated in every exposure (their radiance is "
                      "a lower bound). Times from the journal, relative to the first frame.</p>\n";
   if (merged == 0)
-    body += missing("merged HDR views (run vdrig hdr " + escape(s.dir().string()) + "): no clipped fractions");
+    body += missing("merged HDR views (run vdrig hdr " + escape_html(s.dir().string()) + "): no clipped fractions");
   else
     body += "<p>" + std::to_string(clipped_views) + " of " + std::to_string(merged) +
             " merged views have clipped pixels.</p>\n";
@@ -324,9 +160,9 @@ std::string calibration_section(const ReportData& d) {
   std::string body;
   if (!fs::exists(layout.camera_file())) {
     body += missing("calib/camera.yml (intrinsics: vdrig calib intrinsics, then vdrig calib extrinsics " +
-                    escape(d.session->dir().string()) + "); the stages use the simulator's ground truth");
+                    escape_html(d.session->dir().string()) + "); the stages use the simulator's ground truth");
   } else if (auto camera = CameraModel::load_yaml(layout.camera_file()); !camera) {
-    body += missing("a readable calib/camera.yml: " + escape(camera.error().message));
+    body += missing("a readable calib/camera.yml: " + escape_html(camera.error().message));
   } else {
     double rms = -1;
     try {
@@ -340,17 +176,17 @@ std::string calibration_section(const ReportData& d) {
         "<th>p2</th><th>k3</th><th>RMS reprojection px</th></tr><tr><td>" +
         std::to_string(c.width) + "x" + std::to_string(c.height) + "</td>";
     for (double x : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3})
-      body += "<td>" + format("%.5g", x) + "</td>";
-    body += "<td>" + (rms >= 0 ? format("%.4f", rms) : std::string("not recorded")) + "</td></tr></table>\n";
+      body += "<td>" + html::number("%.5g", x) + "</td>";
+    body += "<td>" + (rms >= 0 ? html::number("%.4f", rms) : std::string("not recorded")) + "</td></tr></table>\n";
   }
   if (!fs::exists(layout.views_file())) {
     body += missing("calib/views.json (per-view marker poses and the kinematic fit: vdrig calib extrinsics " +
-                    escape(d.session->dir().string()) + ")");
+                    escape_html(d.session->dir().string()) + ")");
     return section("calibration", "Calibration", body);
   }
   auto views = calib::read_views_json(layout.views_file());
   if (!views) {
-    body += missing("a readable calib/views.json: " + escape(views.error().message));
+    body += missing("a readable calib/views.json: " + escape_html(views.error().message));
     return section("calibration", "Calibration", body);
   }
   // Per-view marker reprojection error as bars (views without a pose: red tick).
@@ -370,22 +206,23 @@ std::string calibration_section(const ReportData& d) {
     if (v.extrinsics) {
       const double e = v.extrinsics->reprojection_error_px;
       usable += v.usable();
-      svg += "<rect x=\"" + format("%.1f", x) + "\" y=\"" + format("%.1f", y_of(e)) + "\" width=\"" +
-             format("%.2f", std::max(1.0, bar - 1)) + "\" height=\"" + format("%.1f", 140 - y_of(e)) + "\" fill=\"" +
-             (v.extrinsics->excluded ? "#d04040" : "#4070c0") + "\"><title>view " + std::to_string(v.index) + ": " +
-             format("%.3f", e) + " px</title></rect>";
+      svg += "<rect x=\"" + html::number("%.1f", x) + "\" y=\"" + html::number("%.1f", y_of(e)) + "\" width=\"" +
+             html::number("%.2f", std::max(1.0, bar - 1)) + "\" height=\"" + html::number("%.1f", 140 - y_of(e)) +
+             "\" fill=\"" + (v.extrinsics->excluded ? "#d04040" : "#4070c0") + "\"><title>view " +
+             std::to_string(v.index) + ": " + html::number("%.3f", e) + " px</title></rect>";
     } else {
-      svg += "<rect x=\"" + format("%.1f", x) + "\" y=\"136\" width=\"" + format("%.2f", std::max(1.0, bar - 1)) +
-             "\" height=\"4\" fill=\"#d04040\"><title>view " + std::to_string(v.index) + ": " + escape(v.error) +
-             "</title></rect>";
+      svg += "<rect x=\"" + html::number("%.1f", x) + "\" y=\"136\" width=\"" +
+             html::number("%.2f", std::max(1.0, bar - 1)) + "\" height=\"4\" fill=\"#d04040\"><title>view " +
+             std::to_string(v.index) + ": " + escape_html(v.error) + "</title></rect>";
     }
   }
-  svg += "<line x1=\"45\" x2=\"" + std::to_string(width - 5) + "\" y1=\"" + format("%.1f", y_of(views->max_error_px)) +
-         "\" y2=\"" + format("%.1f", y_of(views->max_error_px)) +
+  svg += "<line x1=\"45\" x2=\"" + std::to_string(width - 5) + "\" y1=\"" +
+         html::number("%.1f", y_of(views->max_error_px)) + "\" y2=\"" +
+         html::number("%.1f", y_of(views->max_error_px)) +
          "\" stroke=\"#d04040\" stroke-dasharray=\"4 3\"/><text x=\"2\" y=\"14\" font-size=\"10\">" +
-         format("%.2f", worst) + " px</text><text x=\"2\" y=\"140\" font-size=\"10\">0</text></svg>";
+         html::number("%.2f", worst) + " px</text><text x=\"2\" y=\"140\" font-size=\"10\">0</text></svg>";
   body += "<p>Marker reprojection error per view (RMS over the corner markers, px); dashed: the threshold " +
-          format("%.2f", views->max_error_px) + " px above which a view is excluded; red: excluded or no pose. " +
+          html::number("%.2f", views->max_error_px) + " px above which a view is excluded; red: excluded or no pose. " +
           std::to_string(usable) + " of " + std::to_string(n) + " views usable.</p>\n<figure>" + svg + "</figure>\n";
   if (views->kinematics.is_null()) {
     body += missing("the kinematic fit (fewer than two usable views)");
@@ -396,8 +233,8 @@ std::string calibration_section(const ReportData& d) {
       if (!value.is_array() && !value.is_object()) {
         std::string cell = value.dump();
         if (sigma.is_object() && sigma.contains(key) && sigma[key].is_number())
-          cell += " ± " + format("%.2g", sigma[key].get<double>());
-        body += "<tr><th>" + escape(key) + "</th><td>" + escape(cell) + "</td></tr>";
+          cell += " ± " + html::number("%.2g", sigma[key].get<double>());
+        body += "<tr><th>" + escape_html(key) + "</th><td>" + escape_html(cell) + "</td></tr>";
       }
     body += "</table>\n";
   }
@@ -422,20 +259,20 @@ std::string maps_section(const ReportData& d) {
   std::string body;
   if (d.map_files.empty())
     return section("maps", "Fitted maps",
-                   missing("fitted maps in maps/ (vdrig fit " + escape(d.session->dir().string()) +
+                   missing("fitted maps in maps/ (vdrig fit " + escape_html(d.session->dir().string()) +
                            " --model phong:1 --holdout 3)"));
   for (const fs::path& file : d.map_files) {
-    body += "<article class=\"map\"><h3>" + escape(file.filename().string()) + "</h3>\n";
+    body += "<article class=\"map\"><h3>" + escape_html(file.filename().string()) + "</h3>\n";
     auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
     if (!image) {
-      body += missing("a readable map: " + escape(image.error().message)) + "</article>\n";
+      body += missing("a readable map: " + escape_html(image.error().message)) + "</article>\n";
       continue;
     }
     const auto& attrs = image->string_attributes;
     const auto attr = [&](const std::string& k) { return attrs.count(k) ? attrs.at(k) : std::string("&#8211;"); };
-    body += "<p>Model <code>" + escape(attr("vdrig.model_spec")) + "</code>, " + std::to_string(image->width) + "x" +
-            std::to_string(image->height) + " texels; held-out views: " + escape(attr("vdrig.held_out_views")) +
-            ".</p>\n<div class=\"row\">";
+    body += "<p>Model <code>" + escape_html(attr("vdrig.model_spec")) + "</code>, " + std::to_string(image->width) +
+            "x" + std::to_string(image->height) +
+            " texels; held-out views: " + escape_html(attr("vdrig.held_out_views")) + ".</p>\n<div class=\"row\">";
     const cv::Mat rms = rgb_mean(*image, "rms");
     if (!rms.empty()) body += false_colour(rms, "fit residual RMS (mean of R, G, B)", d.options->map_image_px);
     const cv::Mat holdout = rgb_mean(*image, "holdout");
@@ -468,8 +305,8 @@ Result<std::string> compare_section(const ReportData& d) {
   if (!fs::exists(file)) {
     if (!d.options->compare_json.empty()) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
     return section("compare", "Renders against photographs",
-                   missing("a comparison (vdrig compare " + escape(d.session->dir().string()) +
-                           " --maps phong:1 --holdout writes " + escape(file.string()) + ")"));
+                   missing("a comparison (vdrig compare " + escape_html(d.session->dir().string()) +
+                           " --maps phong:1 --holdout writes " + escape_html(file.string()) + ")"));
   }
   auto json = read_json_file(file);
   if (!json) return json.error();
@@ -478,19 +315,20 @@ Result<std::string> compare_section(const ReportData& d) {
   std::string body =
       "<p>Mean / standard deviation of |render &#8722; photo| in 8-bit codes after the same tone "
       "mapping (gamma " +
-      format("%.3g", report->gamma) + "); highlight pixels: specular term above " +
-      format("%.0f", 100 * report->highlight_fraction) + " % of the total in map <code>" + escape(report->region_map) +
-      "</code>. Difference images amplified 8x.</p>\n";
+      html::number("%.3g", report->gamma) + "); highlight pixels: specular term above " +
+      html::number("%.0f", 100 * report->highlight_fraction) + " % of the total in map <code>" +
+      escape_html(report->region_map) + "</code>. Difference images amplified 8x.</p>\n";
   body +=
       "<table><thead><tr><th>map</th><th>view</th><th>diffuse</th><th>highlight</th><th>all</th><th>render</th>"
       "<th>photo</th><th>difference x8</th><th>regions</th></tr></thead><tbody>\n";
   auto cell = [](const DifferenceStats& s) {
-    return s.samples == 0 ? std::string("&#8211;") : format("%.2f", s.mean) + " / " + format("%.2f", s.stddev);
+    return s.samples == 0 ? std::string("&#8211;")
+                          : html::number("%.2f", s.mean) + " / " + html::number("%.2f", s.stddev);
   };
   std::string absent;
   for (const ViewComparison& r : report->rows) {
-    body += "<tr><td>" + escape(r.map_name) + "</td><td>" + std::to_string(r.view) + "</td><td>" + cell(r.diffuse) +
-            "</td><td>" + cell(r.highlight) + "</td><td>" + cell(r.all) + "</td>";
+    body += "<tr><td>" + escape_html(r.map_name) + "</td><td>" + std::to_string(r.view) + "</td><td>" +
+            cell(r.diffuse) + "</td><td>" + cell(r.highlight) + "</td><td>" + cell(r.all) + "</td>";
     for (const auto& [png, alt] : {std::pair{r.render_png, "render"}, std::pair{r.photo_png, "photo"},
                                    std::pair{r.diff_png, "difference"}, std::pair{r.regions_png, "regions"}}) {
       auto image = read_png(png);
@@ -507,8 +345,8 @@ Result<std::string> compare_section(const ReportData& d) {
     body += "</tr>\n";
   }
   body += "</tbody></table>\n";
-  if (!absent.empty()) body += missing("compare images (run vdrig compare again):" + escape(absent));
-  if (!report->command.empty()) body += "<p>Made by <code>" + escape(report->command) + "</code>.</p>\n";
+  if (!absent.empty()) body += missing("compare images (run vdrig compare again):" + escape_html(absent));
+  if (!report->command.empty()) body += "<p>Made by <code>" + escape_html(report->command) + "</code>.</p>\n";
   return section("compare", "Renders against photographs", body);
 }
 
@@ -522,7 +360,7 @@ std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapRe
   auto tile = obs.read_tile_of_texel(pick.s, pick.t);
   if (!tile)
     return missing("texel " + std::to_string(pick.s) + "," + std::to_string(pick.t) + ": " +
-                   escape(tile.error().message));
+                   escape_html(tile.error().message));
   const fitting::TexelObservations o = tile->texel(pick.s, pick.t);
   std::vector<double> residual(o.size());
   double worst = 1e-12;
@@ -537,18 +375,18 @@ std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapRe
     const Vec3d rgb = o.radiance[i].cast<double>();
     points.push_back({o.direction[i].cast<double>(), viridis(residual[i] / worst), held ? 6.0 : 3.5,
                       "view " + std::to_string(o.view[i]) + (held ? " (held out)" : "") + ": observed " +
-                          format("%.4g", rgb.x()) + " " + format("%.4g", rgb.y()) + " " + format("%.4g", rgb.z()) +
-                          ", |residual| " + format("%.4g", residual[i])});
+                          html::number("%.4g", rgb.x()) + " " + html::number("%.4g", rgb.y()) + " " +
+                          html::number("%.4g", rgb.z()) + ", |residual| " + html::number("%.4g", residual[i])});
   }
   std::string params;
   const auto names = map.model().channels();
   const auto values = map.parameters(pick.s, pick.t);
   for (size_t i = 0; i < names.size() && i < values.size(); ++i)
-    params += (params.empty() ? "" : ", ") + names[i] + " " + format("%.4g", values[i]);
+    params += (params.empty() ? "" : ", ") + names[i] + " " + html::number("%.4g", values[i]);
   return "<figure class=\"texel\">" + polar_plot(points, {}, 260) + "<figcaption>Texel " + std::to_string(pick.s) +
-         "," + std::to_string(pick.t) + " (" + escape(pick.why) + "), " + std::to_string(o.size()) +
+         "," + std::to_string(pick.t) + " (" + escape_html(pick.why) + "), " + std::to_string(o.size()) +
          " observations; large points: held-out views.<br>" + colour_bar(0, worst, "|model - observed| (RGB norm)") +
-         "<br><small>" + escape(params) + "</small></figcaption></figure>\n";
+         "<br><small>" + escape_html(params) + "</small></figcaption></figure>\n";
 }
 
 std::string texels_section(const ReportData& d) {
@@ -563,9 +401,9 @@ std::string texels_section(const ReportData& d) {
     auto obs = fitting::ObsMapReader::open(obs_file);
     if (!obs) {
       return section("texels", "Texels on the hemisphere",
-                     missing("the observation map " + escape(obs_file.string()) + " (vdrig obsmap build " +
-                             escape(d.session->dir().string()) + " --res " + std::to_string(map->texels_s()) + "x" +
-                             std::to_string(map->texels_t()) + ")"));
+                     missing("the observation map " + escape_html(obs_file.string()) + " (vdrig obsmap build " +
+                             escape_html(d.session->dir().string()) + " --res " + std::to_string(map->texels_s()) +
+                             "x" + std::to_string(map->texels_t()) + ")"));
     }
     std::vector<int> held;
     if (auto h = held_out_views(map.value())) held = h.value();
@@ -590,7 +428,7 @@ std::string texels_section(const ReportData& d) {
       else
         picks.push_back({s, t, "chosen"});
     }
-    body = "<p>Map <code>" + escape(file.filename().string()) +
+    body = "<p>Map <code>" + escape_html(file.filename().string()) +
            "</code>: each point an observation of the texel from the direction it was seen (as the coverage plot), "
            "coloured by the model's residual there.</p>\n<div class=\"row\">" +
            [&] {
@@ -620,14 +458,14 @@ std::string provenance_section(const ReportData& d, double build_s) {
   const capture::SessionLayout layout = s.layout();
   std::string body = "<table>";
   const auto row = [&](const std::string& k, const std::string& v) {
-    body += "<tr><th>" + escape(k) + "</th><td>" + v + "</td></tr>";
+    body += "<tr><th>" + escape_html(k) + "</th><td>" + v + "</td></tr>";
   };
-  row("session", "<code>" + escape(fs::absolute(s.dir()).string()) + "</code>");
-  row("captured by", escape(m.software_version) + ", " + escape(m.created_utc));
-  row("report by", escape(capture::software_version()));
-  row("rig", "<code>" + escape(m.rig_config.value("backend", m.rig_config.dump().substr(0, 200))) + "</code>");
-  row("scheme, bracket", "<code>" + escape(m.scheme) + "</code>, <code>" + escape(m.bracket) + "</code>");
-  if (!m.extra.empty()) row("manifest extra", "<code>" + escape(m.extra.dump()) + "</code>");
+  row("session", "<code>" + escape_html(fs::absolute(s.dir()).string()) + "</code>");
+  row("captured by", escape_html(m.software_version) + ", " + escape_html(m.created_utc));
+  row("report by", escape_html(capture::software_version()));
+  row("rig", "<code>" + escape_html(m.rig_config.value("backend", m.rig_config.dump().substr(0, 200))) + "</code>");
+  row("scheme, bracket", "<code>" + escape_html(m.scheme) + "</code>, <code>" + escape_html(m.bracket) + "</code>");
+  if (!m.extra.empty()) row("manifest extra", "<code>" + escape_html(m.extra.dump()) + "</code>");
   body +=
       "</table>\n<h3>Stage timings</h3><table><tr><th>stage</th><th>from</th><th>to / written</th>"
       "<th>duration s</th></tr>";
@@ -637,7 +475,7 @@ std::string provenance_section(const ReportData& d, double build_s) {
     last = std::max(last, f.timestamp_ns);
   }
   body += "<tr><td>capture (journal timestamps)</td><td></td><td></td><td>" +
-          (s.frames().empty() ? std::string("no frames") : format("%.1f", (last - first) * 1e-9)) + "</td></tr>";
+          (s.frames().empty() ? std::string("no frames") : html::number("%.1f", (last - first) * 1e-9)) + "</td></tr>";
   // Later stages record no timings of their own: their outputs' modification times bound them.
   auto span_of = [&](const std::string& stage, const fs::path& dir, const std::string& ext) {
     std::error_code ec;
@@ -651,34 +489,34 @@ std::string provenance_section(const ReportData& d, double build_s) {
           hi = hi ? std::max(*hi, t) : t;
         }
     if (!lo) {
-      body += "<tr><td>" + escape(stage) + "</td><td colspan=\"3\" class=\"missing\">not run</td></tr>";
+      body += "<tr><td>" + escape_html(stage) + "</td><td colspan=\"3\" class=\"missing\">not run</td></tr>";
       return;
     }
-    body += "<tr><td>" + escape(stage) + "</td><td>" + utc(*lo) + "</td><td>" + utc(*hi) + "</td><td>" +
-            format("%.1f", std::chrono::duration<double>(*hi - *lo).count()) + "</td></tr>";
+    body += "<tr><td>" + escape_html(stage) + "</td><td>" + utc(*lo) + "</td><td>" + utc(*hi) + "</td><td>" +
+            html::number("%.1f", std::chrono::duration<double>(*hi - *lo).count()) + "</td></tr>";
   };
   span_of("HDR merge (hdr/*.exr written)", layout.hdr_dir(), ".exr");
   span_of("observation maps (obsmap/*.vdobs written)", layout.obsmap_dir(), ".vdobs");
   span_of("fits (maps/*.exr written)", layout.maps_dir(), ".exr");
   span_of("comparison (compare.json written)", layout.compare_dir(), ".json");
-  body += "<tr><td>this report</td><td></td><td></td><td>" + format("%.2f", build_s) + "</td></tr></table>\n";
-  body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape(m.scheme) + "</code> (" +
-          escape(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
+  body += "<tr><td>this report</td><td></td><td></td><td>" + html::number("%.2f", build_s) + "</td></tr></table>\n";
+  body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape_html(m.scheme) + "</code> (" +
+          escape_html(m.extra.value("created_by", std::string("vdrig capture or vdrigd"))) + ")</li>";
   for (const fs::path& file : d.map_files) {
     auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
     const auto attribute = [&](const std::string& key) {
       return image && image->string_attributes.count(key) ? image->string_attributes.at(key) : std::string();
     };
-    body += "<li>" + escape(file.filename().string()) + ": ";
+    body += "<li>" + escape_html(file.filename().string()) + ": ";
     if (!attribute("vdrig.command").empty()) {
-      body += "<code>" + escape(attribute("vdrig.command")) + "</code></li>";
+      body += "<code>" + escape_html(attribute("vdrig.command")) + "</code></li>";
       continue;
     }
     const std::string spec =
         attribute("vdrig.model_spec").empty() ? file.stem().string() : attribute("vdrig.model_spec");
     const std::string held = attribute("vdrig.held_out_views");
-    body += "not recorded; the map holds model <code>" + escape(spec) + "</code>" +
-            (held.empty() ? "" : ", held-out views " + escape(held)) + "</li>";
+    body += "not recorded; the map holds model <code>" + escape_html(spec) + "</code>" +
+            (held.empty() ? "" : ", held-out views " + escape_html(held)) + "</li>";
   }
   body += "</ul>\n";
   return section("provenance", "Provenance: versions, timings, commands", body);
@@ -720,8 +558,8 @@ Result<std::string> build_report_html(const fs::path& session_dir, const ReportO
   const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   sections += provenance_section(data, build_s);
   const std::string title = "vdrig session report: " + fs::absolute(session_dir).filename().string();
-  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + escape(title) +
-         "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n<h1>" + escape(title) +
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + escape_html(title) +
+         "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n<h1>" + escape_html(title) +
          "</h1>\n<nav><a href=\"#coverage\">coverage</a><a href=\"#views\">views</a><a "
          "href=\"#calibration\">calibration</a><a href=\"#maps\">maps</a><a href=\"#compare\">compare</a><a "
          "href=\"#texels\">texels</a><a href=\"#provenance\">provenance</a></nav>\n" +

@@ -210,4 +210,21 @@ cv::Mat render_animation_frame(const SceneCamera& camera, const AnimationScene& 
   return out;
 }
 
+SceneCamera frame_path(const std::vector<Vec3d>& positions_mm, double sphere_radius_mm, double fov_deg) {
+  VDRIG_CHECK(!positions_mm.empty(), "frame_path needs at least one position");
+  Vec3d lo = positions_mm[0], hi = positions_mm[0];
+  for (const Vec3d& p : positions_mm) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  SceneCamera c;
+  c.look_at_mm = Vec3d(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.25 * (lo.z() + hi.z()));
+  const double half = 0.5 * std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 3 * sphere_radius_mm;
+  const double distance = 1.1 * half / std::tan(0.5 * deg_to_rad(fov_deg));
+  const double elevation = deg_to_rad(35);
+  c.position_mm = c.look_at_mm + distance * Vec3d(0, -std::cos(elevation), std::sin(elevation));
+  c.fov_deg = fov_deg;
+  return c;
+}
+
 }  // namespace vdrig::probe

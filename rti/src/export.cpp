@@ -11,7 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "jpeg_444.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/parameter_map.hpp"

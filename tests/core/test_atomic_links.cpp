@@ -4,7 +4,7 @@
 
 #include <fstream>
 
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "vdrig/core/camera.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/response.hpp"

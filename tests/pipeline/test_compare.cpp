@@ -6,8 +6,8 @@
 
 #include "small_session.hpp"
 #include "vdrig/calib/hdr.hpp"
-#include "vdrig/core/file_io.hpp"
 #include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/test/temp_dir.hpp"

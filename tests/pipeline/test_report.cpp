@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "small_session.hpp"
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
 #include "vdrig/test/process.hpp"

@@ -6,7 +6,7 @@
 //
 // Record `p<pass>_<tile, 6 digits>.rec`: a 48-byte header (magic "VDRIGTIL", u32 version 1, u32 pass, u64 fingerprint
 // hash, u32 tile, u32 0, u64 payload bytes, u64 payload hash64) then the payload (fitting::TileBytes). Written
-// atomically (temporary, fsync, rename, fsync of the folder: core/file_io.hpp), so a record on disk is complete;
+// atomically (temporary, fsync, rename, fsync of the folder: core/file_write.hpp), so a record on disk is complete;
 // one whose header or checksum does not match is refused (kCorrupt) and the tile fitted again.
 #pragma once
 

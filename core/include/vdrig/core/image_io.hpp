@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "vdrig/core/file_io.hpp"  // write_file_atomic: the writers here follow its protocol
+#include "vdrig/core/file_write.hpp"  // write_file_atomic: the writers here follow its protocol
 #include "vdrig/core/result.hpp"
 
 namespace vdrig {

@@ -44,6 +44,11 @@ struct SceneCamera {
   double focal_px() const;
 };
 
+/// The camera `vdrig probe animate` frames a path with: from the -y side, 35 degrees above the horizontal, looking at
+/// the middle of the path's bounding box (at a quarter of its height), far enough for the box and spheres of
+/// `sphere_radius_mm` to fit the horizontal field of view `fov_deg`. `positions_mm` must not be empty.
+SceneCamera frame_path(const std::vector<Vec3d>& positions_mm, double sphere_radius_mm, double fov_deg);
+
 struct AnimationScene {
   double sphere_radius_mm = 150;
   Rgb diffuse_albedo = Rgb(0.75, 0.5, 0.3);

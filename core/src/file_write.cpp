@@ -1,4 +1,4 @@
-#include "vdrig/core/file_io.hpp"
+#include "vdrig/core/file_write.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

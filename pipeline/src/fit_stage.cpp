@@ -1,0 +1,165 @@
+#include "vdrig/pipeline/fit_stage.hpp"
+
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <functional>
+#include <vector>
+
+#include "vdrig/fitting/hsh.hpp"
+#include "vdrig/fitting/phong.hpp"
+#include "vdrig/fitting/sh.hpp"
+#include "vdrig/fitting/tiled_fit.hpp"
+#include "vdrig/pipeline/compare_stage.hpp"
+
+namespace vdrig::pipeline {
+namespace fs = std::filesystem;
+
+double default_smoothing(const fitting::ReflectanceModel& model) {
+  return model.family() == "sh-ls" || model.family() == "hsh" ? 1e-4 : 0.0;
+}
+
+namespace {
+
+/// The models' own options from the request (each model reads its own: fit_map.hpp, MapFitOptions::model_options).
+/// An option the user gave must change what the model's fit reads, i.e. its options_fingerprint, or it does not apply
+/// to the model and is refused rather than silently ignored: `--residual relative` on an SH, HSH or PTM fit (their
+/// texels share one unweighted linear operator; only Phong weighs residuals), `--lobe-support` on a model without
+/// lobes, `--smoothing` on PTM.
+Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
+  auto& phong = options->model_options.edit<fitting::PhongFitOptions>();
+  phong.residual = r.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
+  phong.lobe_support = r.lobe_support;
+  phong.significant_lobes_only = !r.all_lobes;
+  // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
+  const double smoothing = r.smoothing.value_or(default_smoothing(*options->model));
+  const fitting::RingingWindow window = r.window == "hanning"   ? fitting::RingingWindow::kHanning
+                                        : r.window == "lanczos" ? fitting::RingingWindow::kLanczos
+                                                                : fitting::RingingWindow::kNone;
+  auto& sh = options->model_options.edit<fitting::ShFitOptions>();
+  auto& hsh = options->model_options.edit<fitting::HshFitOptions>();
+  sh.smoothing = hsh.smoothing = smoothing;
+  sh.window = hsh.window = window;
+
+  // Whether the model reads an option: does its fingerprint change when the option does?
+  auto applies = [&](const std::function<void(fitting::MapFitOptions&)>& change) {
+    fitting::MapFitOptions other = *options;
+    change(other);
+    return fitting::fit_options_fingerprint(other) != fitting::fit_options_fingerprint(*options);
+  };
+  auto refuse = [&](const std::string& flag) {
+    return make_error(ErrorCode::kInvalidArgument, flag + " does not apply to " + options->model->family() + " models");
+  };
+  if (r.residual != "absolute" && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::PhongFitOptions>().residual = fitting::ResidualMode::kAbsolute;
+      }))
+    return refuse("--residual");
+  if (r.lobe_support != fitting::PhongFitOptions{}.lobe_support &&
+      !applies([](fitting::MapFitOptions& o) { ++o.model_options.edit<fitting::PhongFitOptions>().lobe_support; }))
+    return refuse("--lobe-support");
+  if (r.all_lobes && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = true;
+      }))
+    return refuse("--all-lobes");
+  if (r.smoothing.value_or(0.0) != 0.0 && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::ShFitOptions>().smoothing += 1.0;
+        o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
+      }))
+    return refuse("--smoothing");
+  if (window != fitting::RingingWindow::kNone && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::ShFitOptions>().window = fitting::RingingWindow::kNone;
+        o.model_options.edit<fitting::HshFitOptions>().window = fitting::RingingWindow::kNone;
+      }))
+    return refuse("--window");
+  return Status::ok();
+}
+
+}  // namespace
+
+Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_views) {
+  auto model = fitting::parse_model(r.model);
+  if (!model) return model.error();
+  if (r.residual != "absolute" && r.residual != "relative")
+    return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
+  if (r.window != "none" && r.window != "hanning" && r.window != "lanczos")
+    return make_error(ErrorCode::kInvalidArgument, "--window must be none, hanning or lanczos");
+  if (r.threads < 0 || r.threads > fitting::MapFitOptions::kMaxThreads)
+    return make_error(ErrorCode::kInvalidArgument, "--threads must be in [0, " +
+                                                       std::to_string(fitting::MapFitOptions::kMaxThreads) +
+                                                       "] (0: all cores), got " + std::to_string(r.threads));
+  if (r.holdout < 0 || r.holdout >= session_views)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--holdout must be in [0, " + std::to_string(session_views - 1) + "]");
+  fitting::MapFitOptions options;
+  options.model = model.value();
+  options.threads = r.threads;
+  VDRIG_TRY(set_model_options(r, &options));
+  // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
+  // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
+  // them out of the fit itself.
+  options.held_out = spread_holdout_views(session_views, r.holdout);
+  return options;
+}
+
+Status check_fit_output_writable(const fs::path& out) {
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    return make_error(ErrorCode::kInvalidArgument, "--out: cannot create folder " + dir.string() + ": " + ec.message());
+  if (fs::is_directory(out)) return make_error(ErrorCode::kInvalidArgument, "--out: " + out.string() + " is a folder");
+  std::string probe = (dir / ".vdrig-write-check-XXXXXX").string();
+  const int fd = ::mkstemp(probe.data());
+  if (fd < 0)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--out: cannot write in " + dir.string() + ": " + std::strerror(errno));
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return Status::ok();
+}
+
+size_t map_bytes_at_most(const fitting::ReflectanceModel& model, int texels_s, int texels_t) {
+  const size_t parameters = model.storable() ? model.channels().size() : std::max<size_t>(model.channels().size(), 32);
+  return (parameters + 7 + 3 + 2) * static_cast<size_t>(texels_s) * static_cast<size_t>(texels_t) * sizeof(float);
+}
+
+Status check_map_fits(const fitting::ReflectanceModel& model, int texels_s, int texels_t, const fs::path& out) {
+  const size_t bytes = map_bytes_at_most(model, texels_s, texels_t);
+  auto mib = [](size_t b) { return std::to_string(b >> 20) + " MiB"; };
+  if (bytes > fitting::ParameterMap::kMaxReadBytes)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--res " + std::to_string(texels_s) + "x" + std::to_string(texels_t) + ": a " + model.name() +
+                          " map would take " + mib(bytes) + ", above the " + mib(fitting::ParameterMap::kMaxReadBytes) +
+                          " that vdrig render/view can read back; choose a smaller --res");
+  struct statvfs fs_stat {};
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  if (::statvfs(dir.c_str(), &fs_stat) == 0) {
+    const size_t free_bytes = static_cast<size_t>(fs_stat.f_bavail) * fs_stat.f_frsize;
+    if (free_bytes < bytes)
+      return make_error(ErrorCode::kNoSpace, "--out " + out.string() + ": the map may take up to " + mib(bytes) +
+                                                 " and " + dir.string() + " has " + mib(free_bytes) + " free");
+  }
+  return Status::ok();
+}
+
+FitSummary summarize_fit(const fitting::ParameterMap& map) {
+  auto median_of = [&](const std::string& prefix) {
+    std::vector<float> v;
+    for (int t = 0; t < map.texels_t(); ++t)
+      for (int s = 0; s < map.texels_s(); ++s)
+        if (map.at("n", s, t) > 0)
+          v.push_back((map.at(prefix + "R", s, t) + map.at(prefix + "G", s, t) + map.at(prefix + "B", s, t)) / 3.0f);
+    if (v.empty()) return 0.0f;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  FitSummary summary;
+  summary.median_rms = median_of("rms.");
+  if (map.has("holdout.R")) summary.median_holdout_rms = median_of("holdout.");
+  return summary;
+}
+
+}  // namespace vdrig::pipeline

@@ -1,0 +1,51 @@
+// The HTML/SVG toolkit of the session report (report.cpp holds its sections): numbers formatted for text, inline PNG
+// images, viridis colours and colour bars, false-colour maps of a float plane, polar plots of the hemisphere, and
+// the section frame. Everything returns markup as a string; text is escaped with escape_html (markup.hpp).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/pipeline/markup.hpp"
+
+namespace vdrig::pipeline::html {
+
+/// `value` through a printf format with one double conversion ("%.4g").
+std::string number(const char* printf_format, double value);
+
+/// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
+std::string base64(const std::vector<uchar>& bytes);
+
+/// An <img> of an 8-bit image (BGR or grey) as an inline PNG.
+std::string img_tag(const cv::Mat& image, const std::string& alt);
+
+/// A paragraph saying what is missing from the session, styled as a notice.
+std::string missing(const std::string& what);
+
+/// Viridis (OpenCV's table) at t in [0, 1], as "#rrggbb".
+std::string viridis(double t);
+
+/// A horizontal colour bar (viridis) from lo to hi, its label above; `hi_clipped`: values above hi are shown as hi.
+std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped = false);
+
+/// A false-colour image of a float plane (NaN shown grey), scaled up (nearest) to at least min_width, with its bar.
+/// The scale runs from the minimum to the 99th percentile, so that a few outliers do not darken the whole map.
+std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width);
+
+struct PolarPoint {
+  Vec3d direction;
+  std::string fill;  // "none" for a hollow point
+  double radius_px = 4;
+  std::string title;
+};
+
+/// The upper hemisphere seen from above: radius proportional to the zenith angle (0 at the centre, 90 deg at the rim),
+/// azimuth counter-clockwise from +x (to the right). `route` (may be empty) is drawn as a polyline under the points.
+std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<Vec3d>& route, int size_px = 360);
+
+/// <section id=...><h2>title</h2>body</section>, the frame of every report section (its id is the nav anchor).
+std::string section(const std::string& id, const std::string& title, const std::string& body);
+
+}  // namespace vdrig::pipeline::html
