@@ -1,9 +1,10 @@
+// The list of the hardware backends built into rig: the one source that sees their VDRIG_HAVE_<NAME> definitions
+// (rig_backend in rig/CMakeLists.txt), so that switching a backend on or off recompiles this file alone.
 #include "backends.hpp"
-#include "vdrig/rig/registry.hpp"
 
 namespace vdrig::rig {
 
-// Each hardware backend adds itself here, guarded by its VDRIG_HAVE_<NAME> (rig_backend in rig/CMakeLists.txt).
+// Each hardware backend adds itself here, guarded by its VDRIG_HAVE_<NAME>.
 void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
 #ifdef VDRIG_HAVE_MODBUS
   register_modbus_backends(registry);
@@ -23,6 +24,31 @@ void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
 #ifdef VDRIG_HAVE_GPHOTO2
   register_gphoto2_backend(registry);
 #endif
+}
+
+std::vector<DeviceKind> list_backend_devices() {
+  std::vector<DeviceKind> kinds;
+#ifdef VDRIG_HAVE_LIBCAMERA
+  kinds.push_back(list_libcamera_devices());
+#else
+  kinds.push_back({"libcamera cameras", {}, "libcamera backend not built"});
+#endif
+#ifdef VDRIG_HAVE_USB
+  kinds.push_back(list_usb_ptp_devices());
+#else
+  kinds.push_back({"USB PTP still cameras", {}, "usb-ptp backend not built"});
+#endif
+#ifdef VDRIG_HAVE_GPHOTO2
+  kinds.push_back(list_gphoto2_devices());
+#else
+  kinds.push_back({"gphoto2 cameras (libgphoto2)", {}, "gphoto2 backend not built"});
+#endif
+#ifdef VDRIG_HAVE_GPIOD
+  kinds.push_back(list_gpio_chips());
+#else
+  kinds.push_back({"GPIO chips (gpio-stepdir, gpio light)", {}, "gpiod backends not built"});
+#endif
+  return kinds;
 }
 
 }  // namespace vdrig::rig
