@@ -4,6 +4,14 @@
 
 namespace vdrig::rig {
 
+// Each backend's registration (its factory and settings parser, BackendSpec::check), defined in its source file.
+void register_modbus_backends(BackendRegistry& registry);    // stage: modbus-tcp, modbus-rtu
+void register_gpiod_backends(BackendRegistry& registry);     // stage: gpio-stepdir; light: gpio
+void register_v4l2_backend(BackendRegistry& registry);       // camera: v4l2
+void register_libcamera_backend(BackendRegistry& registry);  // camera: libcamera
+void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (PTP over libusb)
+void register_gphoto2_backend(BackendRegistry& registry);    // camera: gphoto2 (libgphoto2)
+
 // Each hardware backend adds itself here, guarded by its VDRIG_HAVE_<NAME>.
 void register_hardware_backends([[maybe_unused]] BackendRegistry& registry) {
 #ifdef VDRIG_HAVE_MODBUS

@@ -1,6 +1,8 @@
-// The hooks of the hardware backends. Each is defined in its backend's source file, which is compiled only when its
-// option is on and its library was found (rig_backend in rig/CMakeLists.txt); backend_list.cpp, the one source that
-// sees the VDRIG_HAVE_<NAME> definitions, calls those built.
+// What the hardware backends' sources share with bring-up: the device listings of `vdrig rig devices`. Each is
+// defined in its backend's source file, compiled only when its option is on and its library was found (rig_backend
+// in rig/CMakeLists.txt); backend_list.cpp, the one source that sees the VDRIG_HAVE_<NAME> definitions, calls those
+// built. The registration functions are declared in backend_list.cpp alone, so that adding a backend recompiles
+// that file and the backend's own, not every backend.
 #pragma once
 
 #include <filesystem>
@@ -11,14 +13,6 @@
 #include "vdrig/rig/registry.hpp"
 
 namespace vdrig::rig {
-
-// Registration: the backend's factory and settings parser (BackendSpec::check).
-void register_modbus_backends(BackendRegistry& registry);    // stage: modbus-tcp, modbus-rtu
-void register_gpiod_backends(BackendRegistry& registry);     // stage: gpio-stepdir; light: gpio
-void register_v4l2_backend(BackendRegistry& registry);       // camera: v4l2
-void register_libcamera_backend(BackendRegistry& registry);  // camera: libcamera
-void register_usb_ptp_backend(BackendRegistry& registry);    // camera: usb-ptp (PTP over libusb)
-void register_gphoto2_backend(BackendRegistry& registry);    // camera: gphoto2 (libgphoto2)
 
 // `vdrig rig devices` (list_devices): the devices a backend's library finds, searched the way it opens them.
 DeviceKind list_libcamera_devices();  // libcamera_camera.cpp
