@@ -1,7 +1,7 @@
 // A rig config as `vdrig rig check` and make_rig read it: the text (parse_json_text, every repeated key reported),
 // the top level (BackendRegistry::top_level_problems: unknown keys, "lock", "geometry", the shared "sim" section),
-// check_rig_config (each device section through the hardware backends' parse() or the backend's declared check),
-// and make_rig, whose factories here parse their settings and stop: no device is opened. Invariants:
+// check_rig_config (each device section through its backend's settings parser, BackendSpec::check), and make_rig,
+// whose factories here parse their settings and stop: no device is opened. Invariants:
 //  - a text with a repeated key is refused by parse_json_strict (what read_json_file uses);
 //  - every top-level problem is among check_rig_config's problems;
 //  - a config check_rig_config accepts is not refused by make_rig as invalid (it gets as far as a factory);
@@ -9,65 +9,47 @@
 #include <algorithm>
 
 #include "fuzz_support.hpp"
-#include "stepdir_stage.hpp"
 #include "vdrig/core/json_text.hpp"
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
-#if VDRIG_HAVE_MODBUS
-#include "modbus_stage.hpp"
-#endif
-#if VDRIG_HAVE_V4L2
-#include "v4l2_camera.hpp"
-#endif
-#if VDRIG_HAVE_USB
-#include "usb_ptp_camera.hpp"
-#endif
 
 using namespace vdrig;
 using nlohmann::json;
 
 namespace {
 
-/// A factory that parses its settings with `parse` and then declines (nothing to build in a fuzzer).
-template <typename Device, typename Parse>
-rig::Factory<Device> parse_only(Parse parse) {
-  return [parse](const json& settings, rig::RigContext& ctx) -> Result<std::unique_ptr<Device>> {
-    auto parsed = parse(settings, ctx);
+/// A factory that validates its section with the backend's own settings parser and then declines (nothing to
+/// build in a fuzzer).
+template <typename Device>
+rig::Factory<Device> parse_only(const rig::BackendSpec& spec) {
+  return [check = spec.check](const json& settings, rig::RigContext&) -> Result<std::unique_ptr<Device>> {
+    auto parsed = check(settings);
     if (!parsed) return parsed.error();
     return make_error(ErrorCode::kUnsupported, "fuzz: parsed only");
   };
 }
 
-/// The registry as sim::register_backends and the hardware backends make it, with parse-only factories: the
-/// simulator's declarations (its "sim" section, its device sections' check) are its own.
+/// The registry as sim::register_backends and register_hardware_backends make it, every factory replaced by a
+/// parse-only one: each backend's declarations (its sections, its settings parser) are its own.
 rig::BackendRegistry make_registry() {
+  rig::BackendRegistry real;
+  sim::register_backends(real);
+  rig::register_hardware_backends(real);
   rig::BackendRegistry r;
-  sim::register_backends(r);  // the shared "sim" section; the sim factories are replaced below
-  const auto sim = [](const json&, rig::RigContext& ctx) {
-    return sim::SimConfig::from_json(ctx.config.value("sim", json::object()));
-  };
-  r.add_stage("sim", parse_only<rig::PanTiltStage>(sim), sim::backend_spec("stage"));
-  r.add_camera("sim", parse_only<rig::Camera>(sim), sim::backend_spec("camera"));
-  r.add_light("sim", parse_only<rig::Light>(sim), sim::backend_spec("light"));
-  r.add_stage("gpio-stepdir", parse_only<rig::PanTiltStage>(
-                                  [](const json& s, rig::RigContext&) { return rig::StepDirStageConfig::parse(s); }));
-#if VDRIG_HAVE_MODBUS
-  r.add_stage("modbus-rtu", parse_only<rig::PanTiltStage>([](const json& s, rig::RigContext&) {
-                return rig::ModbusStageConfig::parse(s, true);
-              }));
-  r.add_stage("modbus-tcp", parse_only<rig::PanTiltStage>([](const json& s, rig::RigContext&) {
-                return rig::ModbusStageConfig::parse(s, false);
-              }));
-#endif
-#if VDRIG_HAVE_V4L2
-  r.add_camera(
-      "v4l2", parse_only<rig::Camera>([](const json& s, rig::RigContext&) { return rig::V4l2CameraConfig::parse(s); }));
-#endif
-#if VDRIG_HAVE_USB
-  r.add_camera("usb-ptp",
-               parse_only<rig::Camera>([](const json& s, rig::RigContext&) { return rig::UsbPtpConfig::parse(s); }));
-#endif
+  sim::register_backends(r);  // the shared "sim" section; the device factories are replaced below
+  for (const auto& name : real.stage_backends()) {
+    const rig::BackendSpec& spec = *real.spec_of("stage", name);
+    r.add_stage(name, parse_only<rig::PanTiltStage>(spec), spec);
+  }
+  for (const auto& name : real.camera_backends()) {
+    const rig::BackendSpec& spec = *real.spec_of("camera", name);
+    r.add_camera(name, parse_only<rig::Camera>(spec), spec);
+  }
+  for (const auto& name : real.light_backends()) {
+    const rig::BackendSpec& spec = *real.spec_of("light", name);
+    r.add_light(name, parse_only<rig::Light>(spec), spec);
+  }
   return r;
 }
 

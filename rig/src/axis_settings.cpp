@@ -4,6 +4,15 @@
 
 namespace vdrig::rig {
 
+nlohmann::json axis_spec_json(const AxisSpec& a) {
+  constexpr double kDegPerRad = 180.0 / kPi;  // multiplied: the inverse of read_axis_spec's division
+  return {{"min_deg", a.min_rad * kDegPerRad},
+          {"max_deg", a.max_rad * kDegPerRad},
+          {"max_speed_deg_s", a.max_speed_rad_s * kDegPerRad},
+          {"accel_deg_s2", a.accel_rad_s2 * kDegPerRad},
+          {"continuous", a.continuous}};
+}
+
 AxisSpec read_axis_spec(Settings& s) {
   constexpr double kDegPerRad = 180.0 / kPi;  // divided (not deg_to_rad) to keep the radians bit-identical
   AxisSpec axis;

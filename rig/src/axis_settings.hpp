@@ -10,4 +10,7 @@ namespace vdrig::rig {
 /// converted to radians. Problems are recorded in `s`.
 AxisSpec read_axis_spec(Settings& s);
 
+/// The same keys for an axis as read (degrees): what `vdrig rig check` prints of it.
+nlohmann::json axis_spec_json(const AxisSpec& axis);
+
 }  // namespace vdrig::rig

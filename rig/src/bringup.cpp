@@ -3,181 +3,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
-#include "stepdir_stage.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/geometry_config.hpp"
 #include "vdrig/rig/motion.hpp"
-#ifdef VDRIG_HAVE_MODBUS
-#include "modbus_stage.hpp"
-#endif
-#ifdef VDRIG_HAVE_V4L2
-#include "v4l2_camera.hpp"
-#endif
-#ifdef VDRIG_HAVE_USB
-#include "usb_ptp_camera.hpp"
-#endif
-#ifdef VDRIG_HAVE_GPHOTO2
-#include "gphoto2_camera.hpp"
-#endif
 
 namespace vdrig::rig {
 namespace {
 using nlohmann::json;
 constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
-
-json axis_json(const AxisSpec& a) {
-  return {{"min_deg", a.min_rad * kDegPerRad},
-          {"max_deg", a.max_rad * kDegPerRad},
-          {"max_speed_deg_s", a.max_speed_rad_s * kDegPerRad},
-          {"accel_deg_s2", a.accel_rad_s2 * kDegPerRad},
-          {"continuous", a.continuous}};
-}
-
-#ifdef VDRIG_HAVE_MODBUS
-json effective(const ModbusStageConfig& c) {
-  json j = {{"backend", c.rtu ? "modbus-rtu" : "modbus-tcp"},
-            {"response_timeout_s", c.response_timeout_s},
-            {"retries", c.retries},
-            {"poll_interval_s", c.poll_interval_s},
-            {"move_timeout_s", c.move_timeout_s},
-            {"home_timeout_s", c.home_timeout_s},
-            {"word_order", c.word_order == modbus_map::WordOrder::kLowFirst ? "low-first" : "high-first"},
-            {"register_base", c.register_base}};
-  if (c.rtu) {
-    j["device"] = c.device;
-    j["baud"] = c.baud;
-    j["parity"] = std::string(1, c.parity);
-    j["data_bits"] = c.data_bits;
-    j["stop_bits"] = c.stop_bits;
-  } else {
-    j["host"] = c.host;
-    j["port"] = c.port;
-  }
-  namespace mm = modbus_map;
-  for (const auto& [key, a] : {std::pair{"pan", &c.pan}, std::pair{"tilt", &c.tilt}}) {
-    json axis = axis_json(a->axis);
-    axis["unit"] = a->unit;
-    axis["counts_per_degree"] = a->counts_per_degree;
-    axis["in_position_window_deg"] = a->in_position_window_deg;
-    axis["profile_velocity_counts_s"] =
-        std::round(a->axis.max_speed_rad_s * kDegPerRad * std::abs(a->counts_per_degree));
-    axis["profile_accel_counts_s2"] = std::round(a->axis.accel_rad_s2 * kDegPerRad * std::abs(a->counts_per_degree));
-    j[key] = axis;
-  }
-  // The holding registers each drive is expected to have (docs/rig-modbus.md).
-  j["register_map"] = {{"profile_velocity", c.register_base + mm::kProfileVelocity},
-                       {"profile_accel", c.register_base + mm::kProfileAccel},
-                       {"target_position", c.register_base + mm::kTargetPosition},
-                       {"command", c.register_base + mm::kCommand},
-                       {"status", c.register_base + mm::kStatus},
-                       {"actual_position", c.register_base + mm::kActualPosition},
-                       {"fault_code", c.register_base + mm::kFaultCode}};
-  return j;
-}
-#endif
-
-json effective(const StepDirStageConfig& c) {
-  json j = {{"backend", "gpio-stepdir"}, {"chip", c.chip}, {"step_pulse_s", c.step_pulse_s}};
-  for (const auto& [key, a] : {std::pair{"pan", &c.pan}, std::pair{"tilt", &c.tilt}}) {
-    json axis = axis_json(a->axis);
-    axis["step_line"] = a->step_line;
-    axis["dir_line"] = a->dir_line;
-    axis["limit_line"] = a->limit_line;
-    axis["enable_line"] = a->enable_line;
-    axis["enable_active_low"] = a->enable_active_low;
-    axis["limit_active_low"] = a->limit_active_low;
-    axis["dir_invert"] = a->dir_invert;
-    axis["steps_per_degree"] = a->steps_per_rad / kDegPerRad;
-    axis["home_direction"] = a->home_positive ? "positive" : "negative";
-    axis["home_speed_deg_s"] = a->home_speed_rad_s * kDegPerRad;
-    axis["home_max_travel_deg"] = a->home_max_travel_rad * kDegPerRad;
-    axis["home_backoff_deg"] = a->home_backoff_rad * kDegPerRad;
-    j[key] = axis;
-  }
-  return j;
-}
-
-#ifdef VDRIG_HAVE_V4L2
-json effective(const V4l2CameraConfig& c) {
-  std::string fourcc;
-  for (int i = 0; i < 4; ++i) fourcc += static_cast<char>((c.fourcc >> (8 * i)) & 0xff);
-  return {{"backend", "v4l2"},    {"device", c.device},       {"width", c.width},
-          {"height", c.height},   {"pixel_format", fourcc},   {"discard_frames", c.discard_frames},
-          {"buffers", c.buffers}, {"timeout_s", c.timeout_s}, {"gain_control_per_unit", c.gain_control_per_unit}};
-}
-#endif
-
-#ifdef VDRIG_HAVE_USB
-json effective(const UsbPtpConfig& c) {
-  auto hex = [](const std::optional<uint16_t>& v) -> json {
-    if (!v) return "any";
-    char buf[8];
-    std::snprintf(buf, sizeof buf, "%04x", *v);
-    return buf;
-  };
-  return {{"backend", "usb-ptp"},
-          {"vendor_id", hex(c.vendor_id)},
-          {"product_id", hex(c.product_id)},
-          {"index", c.index},
-          {"timeout_s", c.timeout_s},
-          {"capture_timeout_s", c.capture_timeout_s},
-          {"complete_grace_s", c.complete_grace_s},
-          {"keep_on_card", c.keep_on_card},
-          {"base_iso", c.base_iso},
-          {"busy_retries", c.busy_retries}};
-}
-#endif
-
-#ifdef VDRIG_HAVE_GPHOTO2
-json effective(const Gphoto2Config& c) {
-  using T = Gphoto2Config::Target;
-  return {{"backend", "gphoto2"},
-          {"model", c.model.empty() ? "autodetect" : c.model},
-          {"port", c.port.empty() ? "autodetect" : c.port},
-          {"index", c.index},
-          {"capture_target", c.capture_target == T::kRam    ? "ram"
-                             : c.capture_target == T::kCard ? "card"
-                                                            : "camera"},
-          {"keep_on_card", c.keep_on_card},
-          {"base_iso", c.base_iso},
-          {"aperture", c.aperture ? json(*c.aperture) : json("as set on the camera")},
-          {"event_grace_s", c.event_grace_s}};
-}
-#endif
-
-/// The effective settings of a hardware backend's section, or its problems; nullopt when rig has no parser for it
-/// that runs without the device.
-template <typename Config>
-std::optional<json> parsed(const Result<Config>& config, std::vector<std::string>& problems) {
-  if (!config) {
-    problems.push_back(config.error().message);
-    return json();
-  }
-  return effective(config.value());
-}
-
-std::optional<json> parse_section(const std::string& kind, const std::string& backend, const json& section,
-                                  std::vector<std::string>& problems) {
-  if (kind == "stage" && backend == "gpio-stepdir") return parsed(StepDirStageConfig::parse(section), problems);
-#ifdef VDRIG_HAVE_MODBUS
-  if (kind == "stage" && (backend == "modbus-tcp" || backend == "modbus-rtu"))
-    return parsed(ModbusStageConfig::parse(section, backend == "modbus-rtu"), problems);
-#endif
-#ifdef VDRIG_HAVE_V4L2
-  if (kind == "camera" && backend == "v4l2") return parsed(V4l2CameraConfig::parse(section), problems);
-#endif
-#ifdef VDRIG_HAVE_USB
-  if (kind == "camera" && backend == "usb-ptp") return parsed(UsbPtpConfig::parse(section), problems);
-#endif
-#ifdef VDRIG_HAVE_GPHOTO2
-  if (kind == "camera" && backend == "gphoto2") return parsed(Gphoto2Config::parse(section), problems);
-#endif
-  (void)section;
-  (void)problems;
-  return std::nullopt;
-}
 
 std::string join(const std::vector<std::string>& names) {
   std::string out;
@@ -212,15 +48,13 @@ ConfigCheck check_rig_config(const json& config, const BackendRegistry& registry
                                "\" in this build; known: " + join(known));
       continue;
     }
-    auto effective = parse_section(kind, backend, section, check.problems);
-    if (!effective) {
-      // A backend outside rig (the simulator) checks its section through the registry.
-      if (auto checked = registry.check_device_section(kind, backend, section)) {
-        if (*checked)
-          effective = checked->value();
-        else
-          check.problems.push_back(checked->error().message);
-      }
+    // The backend's own settings parser, supplied with its registration (BackendSpec::check).
+    std::optional<json> effective;
+    if (auto checked = registry.check_device_section(kind, backend, section)) {
+      if (*checked)
+        effective = checked->value();
+      else
+        check.problems.push_back(checked->error().message);
     }
     check.effective[kind] = effective ? *effective : section;
   }

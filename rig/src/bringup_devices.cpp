@@ -1,4 +1,5 @@
-// list_devices (bringup.hpp): what `vdrig rig devices` prints. Each kind is searched the way its backend opens it.
+// list_devices (bringup.hpp): what `vdrig rig devices` prints. Each kind is searched the way its backend opens it;
+// the kinds that need a backend's library are searched by that backend (list_backend_devices, backend_list.cpp).
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <sys/ioctl.h>
@@ -9,26 +10,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include "backends.hpp"
 #include "vdrig/rig/bringup.hpp"
-#ifdef VDRIG_HAVE_GPIOD
-#include <gpiod.h>
-#endif
-#ifdef VDRIG_HAVE_USB
-#include "usb_ptp_camera.hpp"
-#endif
-#ifdef VDRIG_HAVE_LIBCAMERA
-#include "libcamera_camera.hpp"
-#endif
-#ifdef VDRIG_HAVE_GPHOTO2
-#include "gphoto2_camera.hpp"
-#endif
 
 namespace vdrig::rig {
-namespace {
 namespace fs = std::filesystem;
 
-/// Entries of `dir` whose name starts with `prefix`, sorted naturally enough (video2 before video10).
-std::vector<fs::path> entries(const fs::path& dir, const std::string& prefix) {
+std::vector<fs::path> device_entries(const fs::path& dir, const std::string& prefix) {
   std::vector<fs::path> out;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec))
@@ -40,6 +28,8 @@ std::vector<fs::path> entries(const fs::path& dir, const std::string& prefix) {
   return out;
 }
 
+namespace {
+
 std::string control_range(int fd, uint32_t id, const char* name) {
   v4l2_queryctrl q{};
   q.id = id;
@@ -50,7 +40,7 @@ std::string control_range(int fd, uint32_t id, const char* name) {
 
 DeviceKind v4l2_cameras() {
   DeviceKind k{"V4L2 cameras", {}, ""};
-  for (const auto& path : entries("/dev", "video")) {
+  for (const auto& path : device_entries("/dev", "video")) {
     const int fd = ::open(path.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
       k.devices.push_back({path.string(), std::string("cannot open: ") + std::strerror(errno)});
@@ -77,59 +67,6 @@ DeviceKind v4l2_cameras() {
   return k;
 }
 
-DeviceKind libcamera_cameras() {
-  DeviceKind k{"libcamera cameras", {}, ""};
-#ifdef VDRIG_HAVE_LIBCAMERA
-  auto cameras = list_libcamera_cameras();
-  if (!cameras)
-    k.note = cameras.error().message;
-  else
-    for (const auto& c : cameras.value()) k.devices.push_back({c, ""});
-#else
-  k.note = "libcamera backend not built";
-#endif
-  return k;
-}
-
-DeviceKind usb_ptp_cameras() {
-  DeviceKind k{"USB PTP still cameras", {}, ""};
-#ifdef VDRIG_HAVE_USB
-  auto cameras = list_usb_still_cameras();
-  if (!cameras) {
-    k.note = cameras.error().message;
-    return k;
-  }
-  for (const auto& c : cameras.value()) {
-    char ids[32];
-    std::snprintf(ids, sizeof ids, "%04x:%04x", c.vendor_id, c.product_id);
-    std::string summary = std::string("vendor_id ") + std::string(ids, 4) + ", product_id " + std::string(ids + 5);
-    if (c.product.empty())
-      summary += "; cannot open it for its names (permissions? see docs/hardware.md)";
-    else
-      summary += "; " + c.manufacturer + " " + c.product + (c.serial.empty() ? "" : ", serial " + c.serial);
-    k.devices.push_back({"usb:" + std::to_string(c.bus) + ":" + std::to_string(c.address), summary});
-  }
-#else
-  k.note = "usb-ptp backend not built";
-#endif
-  return k;
-}
-
-DeviceKind gphoto2_cameras() {
-  DeviceKind k{"gphoto2 cameras (libgphoto2)", {}, ""};
-#ifdef VDRIG_HAVE_GPHOTO2
-  auto cameras = list_gphoto2_cameras();
-  if (!cameras)
-    k.note = cameras.error().message;
-  else
-    for (const auto& c : cameras.value())  // the model and port a "gphoto2" camera section takes
-      k.devices.push_back({c.port, "model \"" + c.model + "\""});
-#else
-  k.note = "gphoto2 backend not built";
-#endif
-  return k;
-}
-
 std::string read_line(const fs::path& file) {
   std::ifstream in(file);
   std::string line;
@@ -141,7 +78,7 @@ DeviceKind serial_ports() {
   // A tty with a device behind it in sysfs is a real port (the kernel's virtual consoles have none); legacy
   // ttyS ports that exist only as placeholders report port type 0 (unknown).
   DeviceKind k{"serial ports (modbus-rtu)", {}, ""};
-  for (const auto& tty : entries("/sys/class/tty", "tty")) {
+  for (const auto& tty : device_entries("/sys/class/tty", "tty")) {
     const std::string name = tty.filename().string();
     std::error_code ec;
     if (!fs::exists(tty / "device", ec)) continue;
@@ -159,37 +96,14 @@ DeviceKind serial_ports() {
   return k;
 }
 
-DeviceKind gpio_chips() {
-  DeviceKind k{"GPIO chips (gpio-stepdir, gpio light)", {}, ""};
-#ifdef VDRIG_HAVE_GPIOD
-  for (const auto& path : entries("/dev", "gpiochip")) {
-    gpiod_chip* chip = gpiod_chip_open(path.c_str());
-    if (!chip) {
-      k.devices.push_back({path.string(), std::string("cannot open: ") + std::strerror(errno)});
-      continue;
-    }
-    const unsigned lines = gpiod_chip_num_lines(chip);
-    std::string summary = std::string(gpiod_chip_label(chip)) + ", " + std::to_string(lines) + " lines";
-    std::string names;
-    for (unsigned i = 0; i < lines; ++i) {
-      gpiod_line* line = gpiod_chip_get_line(chip, i);
-      const char* n = line ? gpiod_line_name(line) : nullptr;
-      if (n && *n) names += (names.empty() ? "" : " ") + std::to_string(i) + "=" + n;
-    }
-    summary += names.empty() ? " (no line names)" : ": " + names;
-    gpiod_chip_close(chip);
-    k.devices.push_back({path.string(), summary});
-  }
-#else
-  k.note = "gpiod backends not built";
-#endif
-  return k;
-}
-
 }  // namespace
 
 std::vector<DeviceKind> list_devices() {
-  return {v4l2_cameras(), libcamera_cameras(), usb_ptp_cameras(), gphoto2_cameras(), serial_ports(), gpio_chips()};
+  // The kinds searched without a backend's library here; the others are the backends' own (backend_list.cpp).
+  std::vector<DeviceKind> kinds = {v4l2_cameras()};
+  for (auto& kind : list_backend_devices()) kinds.push_back(std::move(kind));
+  kinds.push_back(serial_ports());
+  return kinds;
 }
 
 }  // namespace vdrig::rig

@@ -4,15 +4,26 @@
 
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "gpiod_lines.hpp"
 #include "vdrig/rig/devices.hpp"
 
 namespace vdrig::rig {
 
+struct GpioLightConfig {
+  std::string chip = "gpiochip0";
+  int line = -1;
+  bool active_low = false;
+  /// Validates every key up front (kInvalidArgument listing each problem).
+  static Result<GpioLightConfig> parse(const nlohmann::json& settings);
+  /// The settings as used, defaults filled in (`vdrig rig check`).
+  nlohmann::json effective() const;
+};
+
 class GpioLight final : public Light {
  public:
-  static Result<std::unique_ptr<Light>> create(const nlohmann::json& settings);
+  static Result<std::unique_ptr<Light>> create(const GpioLightConfig& config);
   std::string backend() const override { return "gpio"; }
   Status set_on(bool on) override;
 

@@ -68,7 +68,8 @@ class GpiodInput final : public StepDirInput {
 
 void register_gpiod_backends(BackendRegistry& registry) {
   registry.add_stage(
-      "gpio-stepdir", [](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
+      "gpio-stepdir",
+      [](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
         auto config = StepDirStageConfig::parse(settings);
         if (!config) return config.error();
         auto chip = GpioChip::open(config->chip);
@@ -86,8 +87,15 @@ void register_gpiod_backends(BackendRegistry& registry) {
         }
         return std::unique_ptr<PanTiltStage>(std::make_unique<StepDirStage>(
             std::move(config.value()), std::move(pan.value()), std::move(tilt.value()), std::move(estop)));
-      });
-  registry.add_light("gpio", [](const nlohmann::json& settings, RigContext&) { return GpioLight::create(settings); });
+      },
+      {.check = settings_check(StepDirStageConfig::parse)});
+  registry.add_light("gpio",
+                     [](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<Light>> {
+                       auto config = GpioLightConfig::parse(settings);
+                       if (!config) return config.error();
+                       return GpioLight::create(config.value());
+                     },
+                     {.check = settings_check(GpioLightConfig::parse)});
 }
 
 }  // namespace vdrig::rig

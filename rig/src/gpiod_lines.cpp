@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 
+#include "backends.hpp"
 #include "vdrig/core/process_lock.hpp"
 
 namespace vdrig::rig {
@@ -120,6 +121,29 @@ Result<bool> GpioLine::get() {
   const int v = gpiod_line_get_value(line_);
   if (v < 0) return failure("reading", errno);
   return v == 1;
+}
+
+DeviceKind list_gpio_chips() {
+  DeviceKind k{"GPIO chips (gpio-stepdir, gpio light)", {}, ""};
+  for (const auto& path : device_entries("/dev", "gpiochip")) {
+    gpiod_chip* chip = gpiod_chip_open(path.c_str());
+    if (!chip) {
+      k.devices.push_back({path.string(), std::string("cannot open: ") + std::strerror(errno)});
+      continue;
+    }
+    const unsigned lines = gpiod_chip_num_lines(chip);
+    std::string summary = std::string(gpiod_chip_label(chip)) + ", " + std::to_string(lines) + " lines";
+    std::string names;
+    for (unsigned i = 0; i < lines; ++i) {
+      gpiod_line* line = gpiod_chip_get_line(chip, i);
+      const char* n = line ? gpiod_line_name(line) : nullptr;
+      if (n && *n) names += (names.empty() ? "" : " ") + std::to_string(i) + "=" + n;
+    }
+    summary += names.empty() ? " (no line names)" : ": " + names;
+    gpiod_chip_close(chip);
+    k.devices.push_back({path.string(), summary});
+  }
+  return k;
 }
 
 }  // namespace vdrig::rig

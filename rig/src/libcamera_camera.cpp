@@ -94,15 +94,32 @@ Result<std::vector<std::string>> list_libcamera_cameras() {
 LibcameraCamera::LibcameraCamera(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LibcameraCamera::~LibcameraCamera() = default;
 
-Result<std::unique_ptr<Camera>> LibcameraCamera::create(const nlohmann::json& settings) {
+Result<LibcameraConfig> LibcameraConfig::parse(const nlohmann::json& settings) {
   Settings s(settings, "camera libcamera", {"backend"});
-  const std::string id = s.string("camera_id", "");
-  const int width = static_cast<int>(s.integer("width", 0, 0, 16384));
-  const int height = static_cast<int>(s.integer("height", 0, 0, 16384));
-  const double timeout_s = s.number("timeout_s", 5.0, 0.1, 600.0);
-  if ((width == 0) != (height == 0)) s.fail("give both \"width\" and \"height\" or neither");
+  LibcameraConfig c;
+  c.camera_id = s.string("camera_id", "");
+  c.width = static_cast<int>(s.integer("width", 0, 0, 16384));
+  c.height = static_cast<int>(s.integer("height", 0, 0, 16384));
+  c.timeout_s = s.number("timeout_s", 5.0, 0.1, 600.0);
+  if ((c.width == 0) != (c.height == 0)) s.fail("give both \"width\" and \"height\" or neither");
   s.reject_unknown({"camera_id", "width", "height", "timeout_s"});
   if (!s.is_valid(nullptr)) return s.error();
+  return c;
+}
+
+nlohmann::json LibcameraConfig::effective() const {
+  return {{"backend", "libcamera"},
+          {"camera_id", camera_id.empty() ? "first camera" : camera_id},
+          {"width", width},
+          {"height", height},
+          {"timeout_s", timeout_s}};
+}
+
+Result<std::unique_ptr<Camera>> LibcameraCamera::create(const LibcameraConfig& config) {
+  const std::string& id = config.camera_id;
+  const int width = config.width;
+  const int height = config.height;
+  const double timeout_s = config.timeout_s;
 
   auto impl = std::make_unique<Impl>();
   impl->timeout_s = timeout_s;
@@ -267,7 +284,22 @@ Result<Frame> LibcameraCamera::capture() {
 
 void register_libcamera_backend(BackendRegistry& registry) {
   registry.add_camera("libcamera",
-                      [](const nlohmann::json& settings, RigContext&) { return LibcameraCamera::create(settings); });
+                      [](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<Camera>> {
+                        auto config = LibcameraConfig::parse(settings);
+                        if (!config) return config.error();
+                        return LibcameraCamera::create(config.value());
+                      },
+                      {.check = settings_check(LibcameraConfig::parse)});
+}
+
+DeviceKind list_libcamera_devices() {
+  DeviceKind k{"libcamera cameras", {}, ""};
+  auto cameras = list_libcamera_cameras();
+  if (!cameras)
+    k.note = cameras.error().message;
+  else
+    for (const auto& c : cameras.value()) k.devices.push_back({c, ""});
+  return k;
 }
 
 }  // namespace vdrig::rig

@@ -20,10 +20,20 @@ namespace vdrig::rig {
 /// The cameras libcamera sees: "id (model)" each; kDevice when the camera manager does not start.
 Result<std::vector<std::string>> list_libcamera_cameras();
 
+struct LibcameraConfig {
+  std::string camera_id;  // "" = the first camera
+  int width = 0, height = 0;
+  double timeout_s = 5.0;
+  /// Validates every key up front (kInvalidArgument listing each problem).
+  static Result<LibcameraConfig> parse(const nlohmann::json& settings);
+  /// The settings as used, defaults filled in (`vdrig rig check`).
+  nlohmann::json effective() const;
+};
+
 class LibcameraCamera final : public Camera {
  public:
   /// kNotFound when libcamera sees no camera (or not the one named).
-  static Result<std::unique_ptr<Camera>> create(const nlohmann::json& settings);
+  static Result<std::unique_ptr<Camera>> create(const LibcameraConfig& config);
   ~LibcameraCamera() override;
   std::string backend() const override { return "libcamera"; }
   Result<CameraInfo> info() override;

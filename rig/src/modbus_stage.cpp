@@ -440,16 +440,59 @@ Status ModbusStage::stop() {
 
 namespace vdrig::rig {
 
+nlohmann::json ModbusStageConfig::effective() const {
+  nlohmann::json j = {{"backend", rtu ? "modbus-rtu" : "modbus-tcp"},
+                      {"response_timeout_s", response_timeout_s},
+                      {"retries", retries},
+                      {"poll_interval_s", poll_interval_s},
+                      {"move_timeout_s", move_timeout_s},
+                      {"home_timeout_s", home_timeout_s},
+                      {"word_order", word_order == mm::WordOrder::kLowFirst ? "low-first" : "high-first"},
+                      {"register_base", register_base}};
+  if (rtu) {
+    j["device"] = device;
+    j["baud"] = baud;
+    j["parity"] = std::string(1, parity);
+    j["data_bits"] = data_bits;
+    j["stop_bits"] = stop_bits;
+  } else {
+    j["host"] = host;
+    j["port"] = port;
+  }
+  for (const auto& [key, a] : {std::pair{"pan", &pan}, std::pair{"tilt", &tilt}}) {
+    nlohmann::json axis = axis_spec_json(a->axis);
+    axis["unit"] = a->unit;
+    axis["counts_per_degree"] = a->counts_per_degree;
+    axis["in_position_window_deg"] = a->in_position_window_deg;
+    // What the drive's profile registers will hold (docs/rig-modbus.md).
+    axis["profile_velocity_counts_s"] =
+        std::round(a->axis.max_speed_rad_s * kDegPerRad * std::abs(a->counts_per_degree));
+    axis["profile_accel_counts_s2"] = std::round(a->axis.accel_rad_s2 * kDegPerRad * std::abs(a->counts_per_degree));
+    j[key] = axis;
+  }
+  // The holding registers each drive is expected to have (docs/rig-modbus.md).
+  j["register_map"] = {{"profile_velocity", register_base + mm::kProfileVelocity},
+                       {"profile_accel", register_base + mm::kProfileAccel},
+                       {"target_position", register_base + mm::kTargetPosition},
+                       {"command", register_base + mm::kCommand},
+                       {"status", register_base + mm::kStatus},
+                       {"actual_position", register_base + mm::kActualPosition},
+                       {"fault_code", register_base + mm::kFaultCode}};
+  return j;
+}
+
 void register_modbus_backends(BackendRegistry& registry) {
   for (const bool rtu : {false, true}) {
+    const auto parse = [rtu](const nlohmann::json& settings) { return ModbusStageConfig::parse(settings, rtu); };
     registry.add_stage(rtu ? "modbus-rtu" : "modbus-tcp",
-                       [rtu](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
-                         auto config = ModbusStageConfig::parse(settings, rtu);
+                       [parse](const nlohmann::json& settings, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
+                         auto config = parse(settings);
                          if (!config) return config.error();
                          auto stage = std::make_unique<ModbusStage>(std::move(config.value()));
                          VDRIG_TRY(stage->connect());
                          return std::unique_ptr<PanTiltStage>(std::move(stage));
-                       });
+                       },
+                       {.check = settings_check(parse)});
   }
 }
 

@@ -64,6 +64,8 @@ struct ModbusStageConfig {
 
   /// Parses and validates a "stage" section; kInvalidArgument listing every problem.
   static Result<ModbusStageConfig> parse(const nlohmann::json& settings, bool rtu);
+  /// The settings as the backend uses them, defaults filled in, in the section's JSON keys (`vdrig rig check`).
+  nlohmann::json effective() const;
 };
 
 class ModbusStage final : public PanTiltStage {

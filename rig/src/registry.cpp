@@ -53,12 +53,15 @@ std::string backend_named(const nlohmann::json& config, const char* kind) {
 }  // namespace
 
 void BackendRegistry::add_stage(const std::string& name, Factory<PanTiltStage> f, BackendSpec spec) {
+  VDRIG_CHECK(spec.check, "stage backend \"" + name + "\" registered without a settings check (BackendSpec::check)");
   stages_[name] = {std::move(f), std::move(spec)};
 }
 void BackendRegistry::add_camera(const std::string& name, Factory<Camera> f, BackendSpec spec) {
+  VDRIG_CHECK(spec.check, "camera backend \"" + name + "\" registered without a settings check (BackendSpec::check)");
   cameras_[name] = {std::move(f), std::move(spec)};
 }
 void BackendRegistry::add_light(const std::string& name, Factory<Light> f, BackendSpec spec) {
+  VDRIG_CHECK(spec.check, "light backend \"" + name + "\" registered without a settings check (BackendSpec::check)");
   lights_[name] = {std::move(f), std::move(spec)};
 }
 void BackendRegistry::add_section(const std::string& name, std::function<Status(const nlohmann::json&)> check) {
@@ -83,7 +86,7 @@ std::optional<Result<nlohmann::json>> BackendRegistry::check_device_section(cons
                                                                             const std::string& backend,
                                                                             const nlohmann::json& section) const {
   const BackendSpec* spec = spec_of(kind, backend);
-  if (!spec || !spec->check) return std::nullopt;
+  if (!spec) return std::nullopt;
   return spec->check(section);
 }
 
@@ -132,8 +135,15 @@ std::vector<std::string> BackendRegistry::top_level_problems(const nlohmann::jso
 
 Result<Rig> BackendRegistry::make_rig(const nlohmann::json& config) const {
   if (!config.is_object()) return make_error(ErrorCode::kInvalidArgument, "rig config must be a JSON object");
-  if (const auto problems = top_level_problems(config); !problems.empty())
-    return make_error(ErrorCode::kInvalidArgument, "rig config: " + join(problems, "; "));
+  // Every section is validated before any device is opened: a bad light section must not leave a stage homed.
+  auto problems = top_level_problems(config);
+  for (const char* kind : {"stage", "camera", "light"}) {
+    const std::string backend = backend_named(config, kind);
+    if (backend.empty()) continue;  // no section, or no name: build() reports it with the known names
+    if (auto checked = check_device_section(kind, backend, config[kind]); checked && !*checked)
+      problems.push_back(checked->error().message);
+  }
+  if (!problems.empty()) return make_error(ErrorCode::kInvalidArgument, "rig config: " + join(problems, "; "));
   RigContext ctx{config, {}};
   Rig rig;
   auto stage = build(stages_, "stage", config.value("stage", nlohmann::json::object()), ctx);

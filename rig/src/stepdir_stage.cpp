@@ -83,6 +83,31 @@ Result<StepDirStageConfig> StepDirStageConfig::parse(const nlohmann::json& setti
   return c;
 }
 
+nlohmann::json StepDirStageConfig::effective() const {
+  nlohmann::json j = {{"backend", "gpio-stepdir"},
+                      {"chip", chip},
+                      {"step_pulse_s", step_pulse_s},
+                      {"estop_line", estop_line},
+                      {"estop_active_low", estop_active_low}};
+  for (const auto& [key, a] : {std::pair{"pan", &pan}, std::pair{"tilt", &tilt}}) {
+    nlohmann::json axis = axis_spec_json(a->axis);
+    axis["step_line"] = a->step_line;
+    axis["dir_line"] = a->dir_line;
+    axis["limit_line"] = a->limit_line;
+    axis["enable_line"] = a->enable_line;
+    axis["enable_active_low"] = a->enable_active_low;
+    axis["limit_active_low"] = a->limit_active_low;
+    axis["dir_invert"] = a->dir_invert;
+    axis["steps_per_degree"] = a->steps_per_rad / kDegPerRad;
+    axis["home_direction"] = a->home_positive ? "positive" : "negative";
+    axis["home_speed_deg_s"] = a->home_speed_rad_s * kDegPerRad;
+    axis["home_max_travel_deg"] = a->home_max_travel_rad * kDegPerRad;
+    axis["home_backoff_deg"] = a->home_backoff_rad * kDegPerRad;
+    j[key] = axis;
+  }
+  return j;
+}
+
 StepDirStage::StepDirStage(StepDirStageConfig config, std::unique_ptr<StepDirAxisIo> pan_io,
                            std::unique_ptr<StepDirAxisIo> tilt_io, std::unique_ptr<StepDirInput> estop)
     : config_(std::move(config)), estop_(std::move(estop)) {

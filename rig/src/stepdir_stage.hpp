@@ -63,6 +63,8 @@ struct StepDirStageConfig {
   bool estop_active_low = true;
   StepDirAxisConfig pan, tilt;
   static Result<StepDirStageConfig> parse(const nlohmann::json& settings);
+  /// The settings as the backend uses them, defaults filled in, in the section's JSON keys (`vdrig rig check`).
+  nlohmann::json effective() const;
 };
 
 class StepDirStage final : public PanTiltStage {

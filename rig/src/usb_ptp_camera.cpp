@@ -289,6 +289,25 @@ ptp::SessionOptions UsbPtpConfig::session_options() const {
 
 // ---- the camera ----
 
+nlohmann::json UsbPtpConfig::effective() const {
+  const auto hex = [](const std::optional<uint16_t>& v) -> nlohmann::json {
+    if (!v) return "any";
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "%04x", *v);
+    return buf;
+  };
+  return {{"backend", "usb-ptp"},
+          {"vendor_id", hex(vendor_id)},
+          {"product_id", hex(product_id)},
+          {"index", index},
+          {"timeout_s", timeout_s},
+          {"capture_timeout_s", capture_timeout_s},
+          {"complete_grace_s", complete_grace_s},
+          {"keep_on_card", keep_on_card},
+          {"base_iso", base_iso},
+          {"busy_retries", busy_retries}};
+}
+
 Result<std::unique_ptr<Camera>> UsbPtpCamera::create(const nlohmann::json& settings) {
   auto config = UsbPtpConfig::parse(settings);
   if (!config) return config.error();
@@ -454,7 +473,28 @@ Status UsbPtpCamera::remove(const StillFile& file) { return session_->delete_obj
 
 void register_usb_ptp_backend(BackendRegistry& registry) {
   registry.add_camera("usb-ptp",
-                      [](const nlohmann::json& settings, RigContext&) { return UsbPtpCamera::create(settings); });
+                      [](const nlohmann::json& settings, RigContext&) { return UsbPtpCamera::create(settings); },
+                      {.check = settings_check(UsbPtpConfig::parse)});
+}
+
+DeviceKind list_usb_ptp_devices() {
+  DeviceKind k{"USB PTP still cameras", {}, ""};
+  auto cameras = list_usb_still_cameras();
+  if (!cameras) {
+    k.note = cameras.error().message;
+    return k;
+  }
+  for (const auto& c : cameras.value()) {
+    char ids[32];
+    std::snprintf(ids, sizeof ids, "%04x:%04x", c.vendor_id, c.product_id);
+    std::string summary = std::string("vendor_id ") + std::string(ids, 4) + ", product_id " + std::string(ids + 5);
+    if (c.product.empty())
+      summary += "; cannot open it for its names (permissions? see docs/hardware.md)";
+    else
+      summary += "; " + c.manufacturer + " " + c.product + (c.serial.empty() ? "" : ", serial " + c.serial);
+    k.devices.push_back({"usb:" + std::to_string(c.bus) + ":" + std::to_string(c.address), summary});
+  }
+  return k;
 }
 
 }  // namespace vdrig::rig

@@ -45,6 +45,8 @@ struct UsbPtpConfig {
   int busy_retries = 20;
   /// Validates every key up front (kInvalidArgument listing each problem).
   static Result<UsbPtpConfig> parse(const nlohmann::json& settings);
+  /// The settings as the backend uses them, defaults filled in, in the section's JSON keys (`vdrig rig check`).
+  nlohmann::json effective() const;
   ptp::SessionOptions session_options() const;
 };
 

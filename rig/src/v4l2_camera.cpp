@@ -60,6 +60,20 @@ Result<V4l2CameraConfig> V4l2CameraConfig::parse(const nlohmann::json& settings)
   return c;
 }
 
+nlohmann::json V4l2CameraConfig::effective() const {
+  std::string pixel_format;
+  for (int i = 0; i < 4; ++i) pixel_format += static_cast<char>((fourcc >> (8 * i)) & 0xff);
+  return {{"backend", "v4l2"},
+          {"device", device},
+          {"width", width},
+          {"height", height},
+          {"pixel_format", pixel_format},
+          {"discard_frames", discard_frames},
+          {"buffers", buffers},
+          {"timeout_s", timeout_s},
+          {"gain_control_per_unit", gain_control_per_unit}};
+}
+
 Result<std::unique_ptr<Camera>> V4l2Camera::create(const nlohmann::json& settings) {
   auto config = V4l2CameraConfig::parse(settings);
   if (!config) return config.error();
@@ -333,7 +347,8 @@ Result<Frame> V4l2Camera::capture() {
 }
 
 void register_v4l2_backend(BackendRegistry& registry) {
-  registry.add_camera("v4l2", [](const nlohmann::json& settings, RigContext&) { return V4l2Camera::create(settings); });
+  registry.add_camera("v4l2", [](const nlohmann::json& settings, RigContext&) { return V4l2Camera::create(settings); },
+                      {.check = settings_check(V4l2CameraConfig::parse)});
 }
 
 }  // namespace vdrig::rig

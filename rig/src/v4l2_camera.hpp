@@ -28,6 +28,8 @@ struct V4l2CameraConfig {
   double timeout_s = 2.0;
   double gain_control_per_unit = 1.0;
   static Result<V4l2CameraConfig> parse(const nlohmann::json& settings);
+  /// The settings as the backend uses them, defaults filled in, in the section's JSON keys (`vdrig rig check`).
+  nlohmann::json effective() const;
 };
 
 class V4l2Camera final : public Camera {

@@ -152,9 +152,11 @@ TEST(CameraBackends, RegisteredByName) {
 Result<Rig> camera_rig(const nlohmann::json& camera) {
   BackendRegistry registry;
   register_hardware_backends(registry);
-  registry.add_stage("none", [](const nlohmann::json&, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
-    return std::unique_ptr<PanTiltStage>();
-  });
+  registry.add_stage("none",
+                     [](const nlohmann::json&, RigContext&) -> Result<std::unique_ptr<PanTiltStage>> {
+                       return std::unique_ptr<PanTiltStage>();
+                     },
+                     {.check = [](const nlohmann::json& section) -> Result<nlohmann::json> { return section; }});
   return registry.make_rig({{"stage", {{"backend", "none"}}}, {"camera", camera}});
 }
 

@@ -383,9 +383,11 @@ TEST(ModbusStage, RegistryBuildsTheStageByName) {
   EXPECT_NE(std::find(names.begin(), names.end(), "modbus-tcp"), names.end());
   EXPECT_NE(std::find(names.begin(), names.end(), "modbus-rtu"), names.end());
   // A camera that never captures, so make_rig has one.
-  registry.add_camera("none", [](const nlohmann::json&, RigContext&) -> Result<std::unique_ptr<Camera>> {
-    return make_error(ErrorCode::kUnsupported, "test camera");
-  });
+  registry.add_camera("none",
+                      [](const nlohmann::json&, RigContext&) -> Result<std::unique_ptr<Camera>> {
+                        return make_error(ErrorCode::kUnsupported, "test camera");
+                      },
+                      {.check = [](const nlohmann::json& section) -> Result<nlohmann::json> { return section; }});
   nlohmann::json config = {{"stage", stage_config(server.port())}, {"camera", {{"backend", "none"}}}};
   auto rig = registry.make_rig(config);
   ASSERT_FALSE(rig);

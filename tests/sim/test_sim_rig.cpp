@@ -185,9 +185,11 @@ class OtherStage final : public rig::PanTiltStage {
 TEST(SimCamera, PairedWithAnotherStageItRendersThePoseThatStageReports) {
   rig::BackendRegistry registry;
   register_backends(registry);
-  registry.add_stage("other", [](const json&, rig::RigContext&) -> Result<std::unique_ptr<rig::PanTiltStage>> {
-    return std::unique_ptr<rig::PanTiltStage>(std::make_unique<OtherStage>());
-  });
+  registry.add_stage("other",
+                     [](const json&, rig::RigContext&) -> Result<std::unique_ptr<rig::PanTiltStage>> {
+                       return std::unique_ptr<rig::PanTiltStage>(std::make_unique<OtherStage>());
+                     },
+                     {.check = [](const json& section) -> Result<json> { return section; }});
   const json section = small_sim(
       {{"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"response", "linear"}, {"bits", 12}}}});
   auto r = registry.make_rig({{"stage", {{"backend", "other"}}}, {"camera", {{"backend", "sim"}}}, {"sim", section}});

@@ -38,8 +38,8 @@ struct ConfigCheck {
 
 /// Validates all of `config` against the backends of `registry`: the top level (BackendRegistry::top_level_problems:
 /// unknown keys, "lock", "geometry", the shared sections such as "sim"), then each device section ("stage" and
-/// "camera" required, "light" optional) with the hardware backends' own parsers or the backend's BackendSpec::check.
-/// Every problem is listed, each naming its key. A backend that declares no check is listed with its section as given.
+/// "camera" required, "light" optional) with the settings parser its backend was registered with (BackendSpec::check),
+/// so a new backend's section is validated with no change here. Every problem is listed, each naming its key.
 ConfigCheck check_rig_config(const nlohmann::json& config, const BackendRegistry& registry);
 
 struct SelfTestOptions {
@@ -54,11 +54,14 @@ struct SelfTestStep {
   std::string detail;  // measured values, or the error
 };
 
-/// Runs on a built rig: home; small moves of each axis, read back within tolerance and timed against the
-/// configured speed profile (a move far faster or slower than the profile means the drive got other numbers than
-/// sent); one frame per exposure of a short bracket (brighter with longer exposure until saturated); the light on
-/// and off when there is one. Stops at the first failed motion step (later steps would only repeat it). Leaves the
-/// stage at its home position when it can.
+/// Runs on a built rig: home; small moves of each axis, read back within tolerance and timed against the speed
+/// profile the stage reports (PanTiltStage::spec); one frame per exposure of a short bracket (brighter with longer
+/// exposure until saturated); the light on and off when there is one. Stops at the first failed motion step (later
+/// steps would only repeat it). Leaves the stage at its home position when it can.
+/// A move that takes less than half its profile time minus 20 ms, or more than three times it plus 1 s, fails: the
+/// drive then got other numbers than sent. So a stage whose moves are instant (a stand-in, an emulator) passes only
+/// when its spec says so (very high speed and acceleration), which the route planner, timing routes with the same
+/// spec, needs anyway.
 std::vector<SelfTestStep> run_self_test(Rig& rig, const SelfTestOptions& options = {});
 
 }  // namespace vdrig::rig

@@ -10,22 +10,9 @@
 
 #include "vdrig/core/frame.hpp"
 #include "vdrig/core/result.hpp"
+#include "vdrig/rig/stage_spec.hpp"  // AxisSpec, StageSpec (the hardware-free rig model)
 
 namespace vdrig::rig {
-
-/// Motion limits and dynamics of one axis. A move follows a trapezoidal speed profile.
-struct AxisSpec {
-  double min_rad = 0.0;
-  double max_rad = 0.0;
-  double max_speed_rad_s = 0.5;
-  double accel_rad_s2 = 1.0;
-  bool continuous = false;  // true for a pan axis that may turn without end (takes the shorter way round)
-};
-
-struct StageSpec {
-  AxisSpec pan;
-  AxisSpec tilt;
-};
 
 /// A two-axis turntable: pan about the surface normal, tilt about a horizontal axis.
 class PanTiltStage {

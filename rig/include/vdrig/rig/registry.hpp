@@ -1,4 +1,5 @@
-// Backends are created by name from a JSON rig config through a registry. Registration is explicit
+// Backends are created by name from a JSON rig config through a registry; each registration supplies the backend's
+// factory and its settings parser (BackendSpec). Registration is explicit
 // (register_hardware_backends, sim::register_backends): static registrar objects would vanish when linking static
 // libraries. docs/rig-backends.md says how to add a backend.
 //
@@ -40,17 +41,32 @@ using Factory = std::function<Result<std::unique_ptr<Device>>(const nlohmann::js
 struct BackendSpec {
   /// Top-level sections the backend reads besides its own device section (the simulator's "sim"); each is
   /// registered with add_section. A config may have such a section only when one of its devices reads it.
-  std::vector<std::string> sections;
-  /// Validates the device section ("backend" included) without opening the device: the settings as the backend
-  /// will use them, or kInvalidArgument naming every problem. Empty: only the factory validates, when it builds.
+  std::vector<std::string> sections = {};  // (defaulted, so `{.check = ...}` says all a backend without any needs)
+  /// Required: the backend's settings parser. Validates the device section ("backend" included) without opening
+  /// the device and returns the settings as the backend will use them (defaults filled in; `vdrig rig check`
+  /// prints them), or kInvalidArgument naming every problem. make_rig runs it on every device section before it
+  /// calls any factory. settings_check() makes one from a `Config::parse` and `Config::effective`.
   std::function<Result<nlohmann::json>(const nlohmann::json& section)> check;
 };
 
+/// A BackendSpec::check from a settings parser: `parse(section)` returns Result<Config> (kInvalidArgument naming
+/// every problem) and `Config::effective()` the settings as the backend uses them, in JSON.
+template <typename Parse>
+std::function<Result<nlohmann::json>(const nlohmann::json&)> settings_check(Parse parse) {
+  return [parse](const nlohmann::json& section) -> Result<nlohmann::json> {
+    auto config = parse(section);
+    if (!config) return config.error();
+    return config.value().effective();
+  };
+}
+
 class BackendRegistry {
  public:
-  void add_stage(const std::string& name, Factory<PanTiltStage> factory, BackendSpec spec = {});
-  void add_camera(const std::string& name, Factory<Camera> factory, BackendSpec spec = {});
-  void add_light(const std::string& name, Factory<Light> factory, BackendSpec spec = {});
+  /// A backend: its factory (which opens the device) and its BackendSpec, whose `check` is required (a registration
+  /// without one is a VDRIG_CHECK failure: `vdrig rig check` could not validate the section).
+  void add_stage(const std::string& name, Factory<PanTiltStage> factory, BackendSpec spec);
+  void add_camera(const std::string& name, Factory<Camera> factory, BackendSpec spec);
+  void add_light(const std::string& name, Factory<Light> factory, BackendSpec spec);
   /// A top-level section shared by backends (the simulator's "sim") and how to validate it without a device.
   void add_section(const std::string& name, std::function<Status(const nlohmann::json& section)> check);
 
@@ -64,12 +80,15 @@ class BackendRegistry {
   /// each shared section. The device sections are left to device_section_problems and the factories.
   std::vector<std::string> top_level_problems(const nlohmann::json& config) const;
   /// The result of the backend's BackendSpec::check for a device section of `kind` ("stage", "camera", "light"),
-  /// or nullopt when it declared none (or `backend` is unknown).
+  /// or nullopt when `backend` is not registered for that kind.
   std::optional<Result<nlohmann::json>> check_device_section(const std::string& kind, const std::string& backend,
                                                              const nlohmann::json& section) const;
+  /// The BackendSpec `backend` was registered with for `kind`, or null when it is not registered.
+  const BackendSpec* spec_of(const std::string& kind, const std::string& backend) const;
 
-  /// Validates the top level (top_level_problems: kInvalidArgument naming every problem), then builds every device
-  /// of the config. An unknown backend name is kInvalidArgument listing the known ones.
+  /// Validates the whole config before any device is opened: the top level (top_level_problems) and each device
+  /// section through its backend's BackendSpec::check (kInvalidArgument naming every problem of every section);
+  /// then builds every device. An unknown backend name is kInvalidArgument listing the known ones.
   Result<Rig> make_rig(const nlohmann::json& config) const;
 
  private:
@@ -78,7 +97,6 @@ class BackendRegistry {
     Factory<Device> factory;
     BackendSpec spec;
   };
-  const BackendSpec* spec_of(const std::string& kind, const std::string& backend) const;
 
   std::map<std::string, Entry<PanTiltStage>> stages_;
   std::map<std::string, Entry<Camera>> cameras_;
@@ -87,7 +105,8 @@ class BackendRegistry {
 };
 
 /// Registers the hardware backends compiled into this build (modbus-rtu, modbus-tcp, gpio-stepdir, v4l2,
-/// libcamera, gpio light, ...). Backends whose library was absent at build time are not registered.
+/// libcamera, gpio light, ...), each with its settings parser. Backends whose library was absent at build time are
+/// not registered. The list is rig/src/backend_list.cpp.
 void register_hardware_backends(BackendRegistry& registry);
 
 }  // namespace vdrig::rig

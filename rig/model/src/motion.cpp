@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "vdrig/core/geometry.hpp"
+#include "vdrig/core/result.hpp"  // VDRIG_CHECK
 
 namespace vdrig::rig {
 

@@ -5,7 +5,7 @@
 #pragma once
 
 #include "vdrig/core/frame.hpp"
-#include "vdrig/rig/devices.hpp"
+#include "vdrig/rig/stage_spec.hpp"
 
 namespace vdrig::rig {
 

@@ -22,7 +22,7 @@
 
 #include "vdrig/core/camera.hpp"
 #include "vdrig/core/frame.hpp"
-#include "vdrig/rig/devices.hpp"
+#include "vdrig/rig/stage_spec.hpp"
 
 namespace vdrig::rig {
 
