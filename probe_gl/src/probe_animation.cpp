@@ -8,6 +8,7 @@
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/gl/context.hpp"
 #include "vdrig/probe/animation.hpp"
 #include "vdrig/probe/cube_map.hpp"
 #include "vdrig/probe/fusion.hpp"
@@ -17,7 +18,6 @@
 #include "vdrig/probe/shading.hpp"
 #include "vdrig/probe/soft_lights.hpp"
 #include "vdrig/probe_gl/gpu_fusion.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::probe_gl {
 namespace {
@@ -100,7 +100,7 @@ Result<ProbeAnimationResult> render_probe_animation(const ProbeAnimationSettings
                      std::to_string(f) + ", at " + triple_json(glossy.back()) + " mm");
   }
 
-  auto ctx = viewer::GlContext::create(16, 16, false);
+  auto ctx = gl::Context::create(16, 16, false);
   if (!ctx) return ctx.error();
   auto gpu = GpuFusion::create(*probes, box, a.cube_size, fusion);
   if (!gpu) return gpu.error();
