@@ -96,6 +96,7 @@ Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_
   fitting::MapFitOptions options;
   options.model = model.value();
   options.threads = r.threads;
+  options.shared_lights = r.shared_lights;
   VDRIG_TRY(set_model_options(r, &options));
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving

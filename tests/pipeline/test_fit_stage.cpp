@@ -20,12 +20,14 @@ TEST(FitStage, OptionsFromARequest) {
   r.holdout = 3;
   r.residual = "relative";
   r.threads = 2;
+  r.shared_lights = true;
   auto o = fit_options_for(r, 40);
   ASSERT_TRUE(o.is_ok()) << o.error().describe();
   EXPECT_EQ(o->model->name(), "phong:2");
   EXPECT_EQ(o->held_out, spread_holdout_views(40, 3));
   EXPECT_EQ(o->model_options.get<fitting::PhongFitOptions>().residual, fitting::ResidualMode::kRelative);
   EXPECT_EQ(o->threads, 2);
+  EXPECT_TRUE(o->shared_lights);
   EXPECT_TRUE(o->model_options.get<fitting::PhongFitOptions>().significant_lobes_only);
 }
 
