@@ -251,7 +251,9 @@ TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
   DaemonConfig config = config_in(root.path());
   config.max_clients = 8;
   config.max_clients_per_uid = 3;
-  config.idle_timeout_s = 1.0;
+  // Long enough for the refused CLI below to start and connect while the idle ones still hold their slots: a loaded
+  // machine under ASan took more than 1 s to start `vdrig`, found the slots freed and was served.
+  config.idle_timeout_s = 4.0;
   Running d(config);
   ASSERT_TRUE(d.started()) << d.started().describe();
   const fs::path socket = d.daemon().socket_path();
@@ -280,13 +282,13 @@ TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
 
   // After the idle timeout the idle ones are told and closed; the watcher stays; the CLI is served again.
   for (int fd : idle) {
-    const json bye = first_reply(fd, 5000);
+    const json bye = first_reply(fd, 8000);
     EXPECT_EQ(bye.value("code", ""), "idle_timeout") << bye.dump();
     ::close(fd);
   }
   const double closed_after_s = std::chrono::duration<double>(Clock::now() - opened).count();
-  EXPECT_GE(closed_after_s, 0.9);
-  EXPECT_LT(closed_after_s, 3.0);
+  EXPECT_GE(closed_after_s, 3.9);
+  EXPECT_LT(closed_after_s, 6.0);
   const auto served =
       testing::run_process({testing::vdrig_cli(), "session", "status", "--runtime-dir", runtime_dir}, {20.0});
   EXPECT_EQ(served.exit_code, 0) << served.err;
