@@ -1,8 +1,12 @@
-// bench_rti: an RTI job end to end as a user runs it: a 289-image 256x256 JPEG stack with its .lp (synthetic,
-// written first and not timed) through `vdrig rti import`, `vdrig rti fit --model hsh:3` (27 coefficients) and
-// `vdrig rti export --format rti`, and the same with ptm:rgb (18 coefficients) to .ptm. Prints each step's wall time
-// and CPU time and peak RSS (getrusage of the child, wait4) and the fit's median leave-one-out error in 8-bit codes.
-// docs/rti.md has the figures and relight-cli's on this machine class.
+// bench_rti: an RTI job end to end as a user runs it, vdrig beside relight-cli on the same stacks, interleaved.
+// Synthetic JPEG stacks with their .lp (tests/rti/synthetic_stack.hpp; written first, not timed): 289 lights at
+// 256x256 and 60 at 256x256 (and 289 at 1024x1024 with --large). Each job is one command, as a user runs it:
+//   vdrig rti fit STACK --model ptm:rgb --out out.ptm      relight-cli -b ptm -p 18 STACK out.ptm
+//   vdrig rti fit STACK --model hsh:3 --out out.rti        relight-cli -b hsh -p 27 STACK out.rti
+// and, for reference, vdrig's three-step path (rti import + rti fit of the observation map + rti export). Prints the
+// median wall and CPU seconds (user + system of the child, wait4) over --repeat runs, the largest peak RSS, and
+// relight / vdrig ratios. relight-cli is found as the tests find it ($VDRIG_RELIGHT_CLI or scripts/build_relight's
+// build/peers/relight/...); without it only vdrig's figures are printed. docs/rti.md has the results.
 #include <fcntl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -11,12 +15,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "synthetic_stack.hpp"
-#include "vdrig/fitting/parameter_map.hpp"
 
 namespace {
 
@@ -24,7 +29,7 @@ namespace fs = std::filesystem;
 
 struct Run {
   double wall_s = 0;
-  double cpu_s = 0;  // user + system: what the wall time would be on a quiet machine with one core
+  double cpu_s = 0;  // user + system: steadier than wall on a shared machine
   double peak_mb = 0;
   int status = -1;
 };
@@ -36,8 +41,9 @@ Run run(const std::vector<std::string>& args) {
   const auto start = std::chrono::steady_clock::now();
   const pid_t pid = ::fork();
   if (pid == 0) {
-    const int null = ::open("/dev/null", O_WRONLY);  // the steps' progress lines would bury the table
+    const int null = ::open("/dev/null", O_WRONLY);  // progress lines would bury the table
     ::dup2(null, 1);
+    ::dup2(null, 2);
     ::execv(argv[0], argv.data());
     std::_Exit(127);
   }
@@ -46,56 +52,123 @@ Run run(const std::vector<std::string>& args) {
   ::wait4(pid, &status, 0, &ru);
   Run r;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  r.peak_mb = ru.ru_maxrss / 1024.0;
+  r.peak_mb = static_cast<double>(ru.ru_maxrss) / 1024.0;
   r.cpu_s = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
             static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) * 1e-6;
   r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
 
-double median_loo_codes(const fs::path& map_file) {
-  auto map = vdrig::fitting::ParameterMap::read(map_file);
-  if (!map) return -1;
-  std::vector<float> v;
-  for (int t = 0; t < map->texels_t(); ++t)
-    for (int s = 0; s < map->texels_s(); ++s)
-      v.push_back(255.0f * (map->at("loo.R", s, t) + map->at("loo.G", s, t) + map->at("loo.B", s, t)) / 3.0f);
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
+/// Several steps of one job as one run: times add up, peak RSS is the largest.
+Run run_steps(const std::vector<std::vector<std::string>>& steps) {
+  Run total;
+  total.status = 0;
+  for (const auto& step : steps) {
+    const Run r = run(step);
+    total.wall_s += r.wall_s;
+    total.cpu_s += r.cpu_s;
+    total.peak_mb = std::max(total.peak_mb, r.peak_mb);
+    if (r.status != 0) total.status = r.status;
+  }
+  return total;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+std::string find_relight_cli() {
+  if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && ::access(env, X_OK) == 0) return env;
+  const fs::path built =
+      fs::path(VDRIG_SOURCE_DIR) / "build" / "peers" / "relight" / "build" / "relight-cli" / "relight-cli";
+  return ::access(built.c_str(), X_OK) == 0 ? built.string() : "";
+}
+
+struct Summary {
+  double wall_s = 0, cpu_s = 0, peak_mb = 0;
+  bool ok = true;
+};
+
+Summary summarise(const std::vector<Run>& runs) {
+  Summary s;
+  std::vector<double> wall, cpu;
+  for (const Run& r : runs) {
+    wall.push_back(r.wall_s);
+    cpu.push_back(r.cpu_s);
+    s.peak_mb = std::max(s.peak_mb, r.peak_mb);
+    s.ok = s.ok && r.status == 0;
+  }
+  s.wall_s = median(wall);
+  s.cpu_s = median(cpu);
+  return s;
 }
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  bool large = false;
+  int repeat = 3;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--large") == 0) large = true;
+    if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
+  }
   const std::string vdrig = VDRIG_CLI_PATH;
+  const std::string relight = find_relight_cli();
+  if (relight.empty())
+    std::printf("relight-cli not found (scripts/build_relight, or VDRIG_RELIGHT_CLI): vdrig's figures only\n");
   const fs::path dir = fs::temp_directory_path() / ("vdrig_bench_rti_" + std::to_string(::getpid()));
-  fs::create_directories(dir / "stack");
-  std::printf("writing a 289-image 256x256 JPEG stack to %s ...\n", dir.c_str());
-  vdrig::test::write_synthetic_stack(dir / "stack", 256, 256, 289, ".jpg");
-  const std::string obs = (dir / "stack.vdobs").string();
 
-  struct Job {
-    const char* model;
-    const char* format;
-    const char* out;
+  struct Case {
+    int lights, side;
   };
+  std::vector<Case> cases = {{289, 256}, {60, 256}};
+  if (large) cases.push_back({289, 1024});
   bool ok = true;
-  std::printf("%-8s %-8s %9s %9s %9s %9s %9s %12s %14s\n", "model", "format", "import s", "fit s", "export s",
-              "total s", "CPU s", "peak RSS MB", "median LOO");
-  for (const Job job : {Job{"hsh:3", "rti", "out.rti"}, Job{"ptm:rgb", "ptm", "out.ptm"}}) {
-    const std::string map = (dir / (std::string(job.format) + ".exr")).string();
-    const Run a = run({vdrig, "--log-level", "warn", "rti", "import", (dir / "stack").string(), "--out", obs,
-                       "--response", "linear"});
-    const Run b = run({vdrig, "--log-level", "warn", "rti", "fit", obs, "--model", job.model, "--out", map});
-    const Run c = run({vdrig, "--log-level", "warn", "rti", "export", map, "--format", job.format, "--out",
-                       (dir / job.out).string()});
-    ok = ok && a.status == 0 && b.status == 0 && c.status == 0;
-    std::printf("%-8s %-8s %9.2f %9.2f %9.2f %9.2f %9.2f %12.1f %9.3f codes\n", job.model, job.format, a.wall_s,
-                b.wall_s, c.wall_s, a.wall_s + b.wall_s + c.wall_s, a.cpu_s + b.cpu_s + c.cpu_s,
-                std::max({a.peak_mb, b.peak_mb, c.peak_mb}), median_loo_codes(map));
-    fs::remove(obs);
+  std::printf("%-12s %-8s %-22s %8s %8s %9s\n", "stack", "basis", "tool", "wall s", "CPU s", "peak MB");
+  for (const Case& c : cases) {
+    const fs::path stack = dir / "stack";
+    fs::remove_all(dir);
+    fs::create_directories(stack);
+    vdrig::test::write_synthetic_stack(stack, c.side, c.side, c.lights, ".jpg");
+    char label[32];
+    std::snprintf(label, sizeof label, "%d x %d²", c.lights, c.side);
+    struct Job {
+      const char* basis;
+      const char* model;
+      const char* relight_planes;
+      const char* format;
+    };
+    for (const Job job : {Job{"PTM-18", "ptm:rgb", "18", "ptm"}, Job{"HSH-27", "hsh:3", "27", "rti"}}) {
+      const std::string out = (dir / (std::string("out.") + job.format)).string();
+      const std::string obs = (dir / "stack.vdobs").string(), map = (dir / "map.exr").string();
+      std::vector<Run> one, three, peer;
+      for (int r = 0; r < repeat; ++r) {  // interleaved, so that load changes hit every tool alike
+        one.push_back(run({vdrig, "rti", "fit", stack.string(), "--model", job.model, "--out", out}));
+        if (!relight.empty())
+          peer.push_back(
+              run({relight, "-b", job.basis[0] == 'P' ? "ptm" : "hsh", "-p", job.relight_planes, stack.string(), out}));
+        three.push_back(run_steps({{vdrig, "rti", "import", stack.string(), "--out", obs},
+                                   {vdrig, "rti", "fit", obs, "--model", job.model, "--out", map},
+                                   {vdrig, "rti", "export", map, "--format", job.format, "--out", out}}));
+      }
+      const Summary a = summarise(one), b = summarise(three);
+      ok = ok && a.ok && b.ok;
+      std::printf("%-12s %-8s %-22s %8.2f %8.2f %9.1f\n", label, job.basis, "vdrig rti fit STACK", a.wall_s, a.cpu_s,
+                  a.peak_mb);
+      std::printf("%-12s %-8s %-22s %8.2f %8.2f %9.1f\n", label, job.basis, "vdrig import+fit+export", b.wall_s,
+                  b.cpu_s, b.peak_mb);
+      if (!peer.empty()) {
+        const Summary p = summarise(peer);
+        std::printf("%-12s %-8s %-22s %8.2f %8.2f %9.1f%s\n", label, job.basis, "relight-cli", p.wall_s, p.cpu_s,
+                    p.peak_mb, p.ok ? "" : "  (failed)");
+        std::printf("%-12s %-8s %-22s %7.1fx %7.1fx %8.2fx\n", label, job.basis, "relight / vdrig", p.wall_s / a.wall_s,
+                    p.cpu_s / a.cpu_s, p.peak_mb / a.peak_mb);
+      }
+      std::fflush(stdout);
+    }
   }
   fs::remove_all(dir);
-  if (!ok) std::printf("a vdrig step failed\n");
+  if (!ok) std::printf("a vdrig run failed\n");
   return ok ? 0 : 1;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -10,7 +11,9 @@
 #include "progress.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/rti/export.hpp"
+#include "vdrig/rti/fitted_files.hpp"
 #include "vdrig/rti/import.hpp"
+#include "vdrig/rti/stack_fit.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -29,12 +32,27 @@ Result<cv::Rect> parse_crop(const std::string& text) {
 }
 
 struct ImportArgs {
-  std::string stack, out, crop, response = "sRGB", compression = "zstd";
+  std::string stack, out, crop, response = "codes", compression = "zstd";
   int tile = 16;
   int zstd_level = -5;  // zstd's fast levels: less CPU for a slightly larger file (docs/rti.md)
 };
 
+/// A fitted file (.ptm, .rti, relight folder) made elsewhere -> a parameter map that view, render, compare and
+/// rti export take.
+Status run_import_fitted(const ImportArgs& a) {
+  if (!a.crop.empty()) return usage("--crop applies to stacks of photographs, not to a fitted file");
+  if (fs::path(a.out).extension() != ".exr")
+    return usage("--out: a fitted file is imported as a parameter map (.exr), got \"" + a.out + "\"");
+  auto map = rti::read_fitted_file(a.stack);
+  if (!map) return map.error();
+  VDRIG_TRY(map->write(a.out));
+  std::printf("wrote %s (%s, %dx%d texels) from %s\n", a.out.c_str(), map->model().name().c_str(), map->texels_s(),
+              map->texels_t(), a.stack.c_str());
+  return Status::ok();
+}
+
 Status run_import(const ImportArgs& a) {
+  if (rti::is_fitted_file(a.stack)) return run_import_fitted(a);
   rti::ImportOptions options;
   if (!a.crop.empty()) {
     auto crop = parse_crop(a.crop);
@@ -62,8 +80,8 @@ Status run_import(const ImportArgs& a) {
 }
 
 struct FitArgs {
-  std::string obsmap, model = "hsh:3", out;
-  int threads = 0;
+  std::string input, model = "hsh:3", out, response = "codes", crop;
+  int threads = 0, quality = 95;
 };
 
 /// Median over texels of the mean of three channels, in 8-bit codes (x 255).
@@ -78,22 +96,79 @@ float median_codes(const fitting::ParameterMap& map, const std::string& prefix) 
   return v[v.size() / 2];
 }
 
+/// A stack of photographs (an .lp, or a folder holding one) rather than an observation-map file.
+bool is_stack(const std::string& input) {
+  std::error_code ec;
+  return fs::is_directory(input, ec) || fs::path(input).extension() == ".lp";
+}
+
+/// What --out asks for: a parameter map (.exr), a .ptm or .rti file, or else a relight folder.
+std::optional<rti::ExportFormat> out_format(const std::string& out) {
+  const std::string ext = fs::path(out).extension().string();
+  if (ext == ".exr") return std::nullopt;
+  if (ext == ".ptm") return rti::ExportFormat::kPtm;
+  if (ext == ".rti") return rti::ExportFormat::kRti;
+  return rti::ExportFormat::kRelight;
+}
+
 Status run_fit(const FitArgs& a) {
   auto model = fitting::parse_model(a.model);
   if (!model) return model.error();
-  auto obs = fitting::ObsMapReader::open(a.obsmap);
-  if (!obs) return obs.error();
-  fitting::MapFitOptions options;
-  options.model = model.value();
-  options.threads = a.threads;
+  const std::optional<rti::ExportFormat> format = out_format(a.out);
+  if (format) {  // refuse a model the format cannot hold before fitting, not after
+    const fitting::ModelBasis basis = model.value()->coefficient_basis();
+    using Kind = fitting::ModelBasis::Kind;
+    const bool fits = *format == rti::ExportFormat::kPtm
+                          ? basis.kind == Kind::kPtmRgb || basis.kind == Kind::kPtmLrgb
+                          : (basis.kind == Kind::kHsh && (basis.bands == 2 || basis.bands == 3)) ||
+                                (*format == rti::ExportFormat::kRelight && basis.kind == Kind::kPtmRgb);
+    if (!fits)
+      return usage("--out " + a.out + ": " + model.value()->name() +
+                   " cannot be written there (.ptm: ptm:rgb|lrgb; .rti: hsh:2|3; a relight folder: ptm:rgb, hsh:2|3; "
+                   ".exr: any)");
+  }
   ProgressLine progress;
-  options.on_progress = [&progress](const fitting::MapFitProgress& p) {
-    progress.update(p.texels_done, p.texels_total, "  texels %d/%d", p.texels_done, p.texels_total);
-  };
-  auto map = fitting::fit_parameter_map(obs.value(), options);
+  Result<fitting::ParameterMap> map = make_error(ErrorCode::kInternal, "not fitted");
+  if (is_stack(a.input)) {
+    // Straight from the photographs, one pass (rti/stack_fit.hpp): no observation map on disk.
+    rti::StackFitOptions options;
+    options.model = model.value();
+    options.threads = a.threads;
+    auto lin = rti::Linearisation::parse(a.response);
+    if (!lin) return lin.error();
+    options.linearisation = std::move(lin.value());
+    if (!a.crop.empty()) {
+      auto crop = parse_crop(a.crop);
+      if (!crop) return crop.error();
+      options.crop = crop.value();
+    }
+    options.on_progress = [&progress](int done, int total) {
+      progress.update(done, total, "  rows %d/%d", done, total);
+    };
+    map = rti::fit_stack(a.input, options);
+  } else {
+    if (!a.crop.empty() || a.response != "codes")
+      return usage("--crop and --response apply to a stack of photographs; " + a.input +
+                   " was imported with its own (vdrig rti import)");
+    auto obs = fitting::ObsMapReader::open(a.input);
+    if (!obs) return obs.error();
+    fitting::MapFitOptions options;
+    options.model = model.value();
+    options.threads = a.threads;
+    options.on_progress = [&progress](const fitting::MapFitProgress& p) {
+      progress.update(p.texels_done, p.texels_total, "  texels %d/%d", p.texels_done, p.texels_total);
+    };
+    map = fitting::fit_parameter_map(obs.value(), options);
+  }
   progress.finish();
   if (!map) return map.error();
-  VDRIG_TRY(map->write(a.out));
+  if (format) {
+    rti::ExportOptions options;
+    options.jpeg_quality = a.quality;
+    VDRIG_TRY(rti::export_map(map.value(), *format, a.out, options));
+  } else {
+    VDRIG_TRY(map->write(a.out));
+  }
   std::printf("wrote %s (%s, %dx%d texels); median RMS %.3f codes", a.out.c_str(), map->model().name().c_str(),
               map->texels_s(), map->texels_t(), median_codes(map.value(), "rms."));
   if (map->has("loo.R")) std::printf(", median leave-one-out RMS %.3f codes", median_codes(map.value(), "loo."));
@@ -123,11 +198,16 @@ const CommandRegistrar kRti([](CLI::App& root) {
   rti->require_subcommand(1);
   {
     auto a = std::make_shared<ImportArgs>();
-    auto* cmd = rti->add_subcommand("import", "photographs + .lp light list -> observation-map file");
-    cmd->add_option("stack", a->stack, "the .lp file, or a folder holding exactly one")->required();
-    cmd->add_option("--out", a->out, "observation-map file to write (.vdobs)")->required();
+    auto* cmd = rti->add_subcommand("import",
+                                    "photographs + .lp light list -> observation-map file; or a fitted .ptm, .rti, "
+                                    "relight folder -> parameter map");
+    cmd->add_option("stack", a->stack,
+                    "the .lp file, or a folder holding exactly one; or a fitted .ptm, .rti, relight folder")
+        ->required();
+    cmd->add_option("--out", a->out, "observation-map file to write (.vdobs), or a parameter map (.exr)")->required();
     cmd->add_option("--crop", a->crop, "x,y,w,h in image pixels from the top-left corner");
-    cmd->add_option("--response", a->response, "8/16-bit codes to radiance: sRGB | linear | a response JSON file")
+    cmd->add_option("--response", a->response,
+                    "what is fitted: codes (as RTI viewers show them) | sRGB (linear radiance) | a response JSON")
         ->capture_default_str();
     cmd->add_option("--compression", a->compression, "observation map: none | zstd")
         ->check(CLI::IsMember({"none", "zstd"}))
@@ -139,10 +219,22 @@ const CommandRegistrar kRti([](CLI::App& root) {
   }
   {
     auto a = std::make_shared<FitArgs>();
-    auto* cmd = rti->add_subcommand("fit", "fit an imported stack -> parameter map (EXR) with RMS and leave-one-out");
-    cmd->add_option("obsmap", a->obsmap, "observation-map file (vdrig rti import)")->required();
+    auto* cmd = rti->add_subcommand("fit",
+                                    "fit a stack (photographs + .lp, in one pass) or an imported observation map -> "
+                                    "parameter map with RMS and leave-one-out, or straight to .ptm/.rti/relight");
+    cmd->add_option("input", a->input,
+                    "the stack (its .lp, or a folder holding one), or an observation-map file (vdrig rti import)")
+        ->required();
     cmd->add_option("--model", a->model, fitting::model_registry().syntax())->capture_default_str();
-    cmd->add_option("--out", a->out, "parameter map to write (.exr)")->required();
+    cmd->add_option("--out", a->out,
+                    "a parameter map (.exr), a .ptm or .rti file, or a folder (the relight format OpenLIME reads)")
+        ->required();
+    cmd->add_option("--response", a->response,
+                    "stacks: what is fitted: codes (as RTI viewers show them) | sRGB (linear radiance) | a response "
+                    "JSON")
+        ->capture_default_str();
+    cmd->add_option("--crop", a->crop, "stacks: x,y,w,h in image pixels from the top-left corner");
+    cmd->add_option("--quality", a->quality, "relight: JPEG quality 1..100")->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: all cores)")->capture_default_str();
     cmd->callback([a] { finish(run_fit(*a)); });
   }

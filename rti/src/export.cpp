@@ -24,6 +24,10 @@ using fitting::ParameterMap;
 
 constexpr double kCodes = 255.0;
 
+/// Relight's PTM term k is vdrig's PTM coefficient kRelightPtmOrder[k] (1, x, y, x^2, xy, y^2 against vdrig's
+/// x^2, y^2, xy, x, y, 1).
+constexpr int kRelightPtmOrder[6] = {5, 3, 4, 0, 2, 1};
+
 /// Range of a set of values, widened when empty so that scale is never 0.
 struct Range {
   double lo = 0, hi = 0;
@@ -124,9 +128,15 @@ Status write_rti(const ParameterMap& map, int bands, const fs::path& out) {
   bytes.append(reinterpret_cast<const char*>(scale.data()), 4 * scale.size());
   bytes.append(reinterpret_cast<const char*>(bias.data()), 4 * bias.size());
   bytes.reserve(bytes.size() + all.size() * 3 * K);
-  for (const Eigen::MatrixXd& c : all)  // rows bottom (t = 0) to top; per texel R terms, G terms, B terms
-    for (int ch = 0; ch < 3; ++ch)
-      for (int k = 0; k < K; ++k) bytes.push_back(static_cast<char>(to_byte((c(k, ch) - bias[k]) / scale[k] * 255.0)));
+  // Rows top to bottom (file row j is image row j, texel row T - 1 - j), as RTIViewer's loader and relight read
+  // them: unlike PTM, whose rows go bottom to top. Per texel the R terms, then G, then B.
+  for (int row = 0; row < T; ++row)
+    for (int s = 0; s < S; ++s) {
+      const Eigen::MatrixXd& c = all[static_cast<size_t>(T - 1 - row) * S + s];
+      for (int ch = 0; ch < 3; ++ch)
+        for (int k = 0; k < K; ++k)
+          bytes.push_back(static_cast<char>(to_byte((c(k, ch) - bias[k]) / scale[k] * 255.0)));
+    }
   return write_file_atomic(out, bytes);
 }
 
@@ -139,9 +149,14 @@ Status write_relight(const ParameterMap& map, const fs::path& out, const ExportO
   if (basis.kind == fitting::ModelBasis::Kind::kPtmRgb) {
     K = 6;
     type = "ptm";
+    // relight's and OpenLIME's PTM weights are 1, x, y, x^2, xy, y^2 (Rti::lightWeightsPtm, PTM.lightWeights);
+    // vdrig's (and the .ptm file's) coefficients are a0 x^2, a1 y^2, a2 xy, a3 x, a4 y, a5.
     coefficients = [&map](int s, int t) {
       const std::vector<double> p = map.parameters(s, t);
-      return Eigen::MatrixXd(Eigen::Map<const Eigen::MatrixXd>(p.data(), 6, 3));
+      const Eigen::Map<const Eigen::MatrixXd> ours(p.data(), 6, 3);
+      Eigen::MatrixXd theirs(6, 3);
+      for (int k = 0; k < 6; ++k) theirs.row(k) = ours.row(kRelightPtmOrder[k]);
+      return theirs;
     };
   } else if (basis.kind == fitting::ModelBasis::Kind::kHsh && (basis.bands == 2 || basis.bands == 3)) {
     K = basis.bands * basis.bands;
@@ -181,9 +196,17 @@ Status write_relight(const ParameterMap& map, const fs::path& out, const ExportO
     if (!jpeg) return jpeg.error();
     VDRIG_TRY(write_file_atomic(out / ("plane_" + std::to_string(k) + ".jpg"), jpeg.value()));
   }
-  const nlohmann::json info = {{"width", S},         {"height", T},         {"format", "jpg"},
-                               {"type", type},       {"colorspace", "rgb"}, {"nplanes", 3 * K},
-                               {"scale", scale},     {"bias", bias},        {"quality", options.jpeg_quality},
+  // scale and bias belong to the first (only) material: OpenLIME's ShaderRTI.init, relight's Rti::load and
+  // relight-core.js all read materials[0].scale/bias.
+  const nlohmann::json material = {{"scale", scale}, {"bias", bias}};
+  const nlohmann::json info = {{"width", S},
+                               {"height", T},
+                               {"format", "jpg"},
+                               {"type", type},
+                               {"colorspace", "rgb"},
+                               {"nplanes", 3 * K},
+                               {"materials", nlohmann::json::array({material})},
+                               {"quality", options.jpeg_quality},
                                {"producer", "vdrig"}};
   return write_file_atomic(out / "info.json", info.dump(1) + "\n");
 }

@@ -5,6 +5,7 @@
 #include <future>
 #include <opencv2/imgproc.hpp>
 
+#include "linear_table.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
@@ -15,27 +16,6 @@ namespace {
 namespace fs = std::filesystem;
 
 double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
-
-/// code -> linear value of channel c (R G B) for `bits`-bit images.
-std::vector<float> linear_table(const Linearisation& lin, int bits, int channel) {
-  const int max_code = (1 << bits) - 1;
-  std::vector<float> table(static_cast<size_t>(max_code) + 1);
-  for (int code = 0; code <= max_code; ++code) {
-    const double v = static_cast<double>(code) / max_code;
-    switch (lin.kind) {
-      case Linearisation::Kind::kSrgb:
-        table[code] = static_cast<float>(srgb_to_linear(v));
-        break;
-      case Linearisation::Kind::kLinear:
-        table[code] = static_cast<float>(v);
-        break;
-      case Linearisation::Kind::kCurve:
-        table[code] = static_cast<float>(lin.curve.inverse(channel, code));
-        break;
-    }
-  }
-  return table;
-}
 
 Result<cv::Mat> read_exr_rgb(const fs::path& path) {
   auto exr = read_exr(path);
@@ -64,17 +44,37 @@ Status check_crop(const cv::Rect& crop, const cv::Size& size, const std::string&
 
 }  // namespace
 
+std::vector<float> linear_table(const Linearisation& lin, int bits, int channel) {
+  const int max_code = (1 << bits) - 1;
+  std::vector<float> table(static_cast<size_t>(max_code) + 1);
+  for (int code = 0; code <= max_code; ++code) {
+    const double v = static_cast<double>(code) / max_code;
+    switch (lin.kind) {
+      case Linearisation::Kind::kSrgb:
+        table[code] = static_cast<float>(srgb_to_linear(v));
+        break;
+      case Linearisation::Kind::kCodes:
+        table[code] = static_cast<float>(v);
+        break;
+      case Linearisation::Kind::kCurve:
+        table[code] = static_cast<float>(lin.curve.inverse(channel, code));
+        break;
+    }
+  }
+  return table;
+}
+
 Result<Linearisation> Linearisation::parse(const std::string& text) {
   Linearisation lin;
-  if (text == "sRGB" || text == "srgb") return lin;
-  if (text == "linear") {
-    lin.kind = Kind::kLinear;
+  if (text == "sRGB" || text == "srgb") {
+    lin.kind = Kind::kSrgb;
     return lin;
   }
+  if (text == "codes" || text == "linear") return lin;
   auto json = read_json_file(text);
   if (!json)
     return make_error(json.error().code,
-                      "response \"" + text + "\" (sRGB, linear or a response JSON file): " + json.error().message);
+                      "response \"" + text + "\" (codes, sRGB or a response JSON file): " + json.error().message);
   auto curve = ResponseCurve::from_json(json.value());
   if (!curve) return make_error(ErrorCode::kInvalidArgument, text + ": " + curve.error().message);
   lin.kind = Kind::kCurve;

@@ -1,7 +1,7 @@
 // A synthetic RTI stack with known ground truth: `lights` 8-bit PNG images of `width` x `height` and their .lp,
 // lit from a spiral of directions over the hemisphere (elevation 15..90 deg). Texel (s, t) (image column s, row
 // height - 1 - t) has radiance albedo(s, t) * (0.15 + 0.7 max(0, n(s, t) . l)) with a smoothly varying normal and
-// colour, stored as codes round(255 radiance) (linear: import with Linearisation::Kind::kLinear).
+// colour, stored as codes round(255 radiance) (import with Linearisation::Kind::kCodes, the default).
 #pragma once
 
 #include <algorithm>

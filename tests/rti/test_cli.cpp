@@ -32,6 +32,15 @@ TEST(RtiCli, ImportFitExport) {
     EXPECT_EQ(r.exit_code, 0) << r.out;
   }
   EXPECT_TRUE(std::filesystem::exists(dir / "out.relight" / "info.json"));
+  // A fitted file made elsewhere comes back as a parameter map that view, render and compare take.
+  for (const char* fitted : {"out.rti", "out.relight"}) {
+    r = vdrig("rti import " + d + "/" + fitted + " --out " + d + "/back.exr");
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    EXPECT_NE(r.out.find("(hsh:3, 10x8 texels)"), std::string::npos) << r.out;
+  }
+  r = vdrig("rti import " + d + "/out.rti --out " + d + "/back.vdobs");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("a fitted file is imported as a parameter map (.exr)"), std::string::npos) << r.out;
   // A model the format cannot hold: refused with the reason.
   r = vdrig("rti export " + d + "/m.exr --format ptm --out " + d + "/out.ptm");
   EXPECT_NE(r.exit_code, 0);

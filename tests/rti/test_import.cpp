@@ -12,7 +12,7 @@ namespace {
 
 ImportOptions linear_options() {
   ImportOptions o;
-  o.linearisation.kind = Linearisation::Kind::kLinear;
+  o.linearisation.kind = Linearisation::Kind::kCodes;
   return o;
 }
 
@@ -47,7 +47,8 @@ TEST(RtiImport, ObservationsArePixelsAndDirectionsAreTheLights) {
 TEST(RtiImport, CropAndSrgbLinearisation) {
   test::TempDir dir("rti_import_crop");
   test::write_synthetic_stack(dir.path(), 12, 8, 6);
-  ImportOptions o;  // sRGB
+  ImportOptions o;
+  o.linearisation.kind = Linearisation::Kind::kSrgb;
   o.crop = cv::Rect(2, 1, 5, 4);
   auto summary = import_stack(dir / "stack.lp", dir / "map.vdobs", o);
   ASSERT_TRUE(summary) << summary.error().describe();
@@ -109,7 +110,9 @@ TEST(RtiImport, SixteenBitAndGreyImages) {
 
 TEST(RtiImport, ResponseNames) {
   EXPECT_EQ(Linearisation::parse("sRGB")->kind, Linearisation::Kind::kSrgb);
-  EXPECT_EQ(Linearisation::parse("linear")->kind, Linearisation::Kind::kLinear);
+  EXPECT_EQ(Linearisation::parse("linear")->kind, Linearisation::Kind::kCodes);
+  EXPECT_EQ(Linearisation::parse("codes")->kind, Linearisation::Kind::kCodes);
+  EXPECT_EQ(Linearisation{}.kind, Linearisation::Kind::kCodes);  // what the viewers show (docs/rti.md, Colour)
   EXPECT_EQ(Linearisation::parse("/nonexistent/response.json").error().code, ErrorCode::kNotFound);
 }
 

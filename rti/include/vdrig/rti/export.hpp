@@ -6,8 +6,10 @@
 //    the coefficients converted into RTIViewer's HSH basis (rti_hsh_basis).
 //  - relight's web format (info.json + plane_<k>.jpg), as OpenLIME's RTI layer loads it, from ptm:rgb or hsh:N.
 // Values: the viewers work in 8-bit display codes, so radiance r is written as the code 255 r (1.0 = code 255);
-// import with `--response linear` to fit the codes themselves as relight-cli and RTIBuilder do. Rows are written
-// bottom to top (texel row t = 0 first) in .ptm and .rti, top to bottom in the JPEG planes.
+// the viewers show the value itself as the display code (OpenLIME decodes it with srgb2linear and re-encodes it for
+// the screen), so the map must hold fitted codes: `vdrig rti import`'s default `--response codes`. Rows are written
+// bottom to top (texel row t = 0 first) in .ptm, top to bottom in .rti and the JPEG planes (as the viewers read
+// them). relight's PTM planes are in its order (1, x, y, x^2, xy, y^2), the .ptm file's in PTM 1.2's.
 //
 // Quantisation: every coefficient k gets a range [lo_k, hi_k] over the map (and over R, G, B where the format
 // shares one scale); .ptm stores a = (byte - bias_k) scale_k with an integer bias, .rti a = byte / 255 scale_k +

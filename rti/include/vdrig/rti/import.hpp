@@ -23,14 +23,19 @@
 
 namespace vdrig::rti {
 
-/// How 8- and 16-bit codes become linear radiance. Float images (EXR, 32-bit TIFF) are linear already and pass
-/// unchanged.
+/// How 8- and 16-bit codes become the values that are fitted. Float images (EXR, 32-bit TIFF) pass unchanged.
+///
+/// The default fits the codes as they are (code / max): RTI viewers (RTIViewer, OpenLIME, relight) show the fitted
+/// value as the display code, so a map of codes looks like the photographs there. kSrgb and kCurve fit linear
+/// radiance instead (physically right sums of lights, and what vdrig's own renders of other maps hold); exported
+/// to those viewers such a map shows darker mid-tones (docs/rti.md, "Colour").
 struct Linearisation {
-  enum class Kind { kSrgb, kLinear, kCurve };
-  Kind kind = Kind::kSrgb;  // the sRGB transfer curve (what cameras' JPEGs carry)
-  ResponseCurve curve;      // kCurve: a recovered camera response (vdrig calib), its bits must be the images'
+  enum class Kind { kCodes, kSrgb, kCurve };
+  Kind kind = Kind::kCodes;
+  ResponseCurve curve;  // kCurve: a recovered camera response (vdrig calib), its bits must be the images'
 
-  /// "sRGB", "linear", or a response JSON file (as `vdrig calib` writes it); kInvalidArgument/kNotFound otherwise.
+  /// "codes" (also "linear", its former name), "sRGB", or a response JSON file (as `vdrig calib` writes it);
+  /// kInvalidArgument/kNotFound otherwise.
   static Result<Linearisation> parse(const std::string& text);
 };
 
