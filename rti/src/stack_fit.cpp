@@ -16,7 +16,6 @@
 #include "linear_table.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
-#include "vdrig/fitting/fit_quality.hpp"
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/rti/light_positions.hpp"
 
@@ -26,8 +25,8 @@ namespace {
 namespace fs = std::filesystem;
 using RowMajorXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-/// Texels fitted per band: the band's samples (images x texels x 3 floats) stay near 4 MB per 100 images.
-constexpr int kTexelsPerBand = 4096;
+/// Texels fitted per band: the band's samples (images x texels x 3 floats) stay near 1.2 MB per 100 images.
+constexpr int kTexelsPerBand = 1024;
 
 /// The rows of one photograph, top to bottom, as fitted values (RGB floats), cropped.
 class RowSource {
@@ -321,9 +320,27 @@ Result<fitting::ParameterMap> fit_stack(const fs::path& stack, const StackFitOpt
   const bool loo = model->reports_leave_one_out();
   if (loo)
     for (const char* c : {"loo.R", "loo.G", "loo.B"}) map.add_channel(c);
+  // The quality channels by index (ParameterMap::set_quality looks each up by name, per texel).
+  const auto channel = [&map](const std::string& name) -> cv::Mat& {
+    const int i = map.image().find(name);
+    VDRIG_CHECK(i >= 0, "fit_stack: no channel " + name);
+    return map.image().channels[static_cast<size_t>(i)];
+  };
+  cv::Mat* rms_channel[3] = {&channel("rms.R"), &channel("rms.G"), &channel("rms.B")};
+  cv::Mat* mpe_channel[3] = {&channel("mpe.R"), &channel("mpe.G"), &channel("mpe.B")};
+  cv::Mat* loo_channel[3] = {loo ? &channel("loo.R") : nullptr, loo ? &channel("loo.G") : nullptr,
+                             loo ? &channel("loo.B") : nullptr};
+  cv::Mat& n_channel = channel("n");
   const int threads = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
   const int band_rows = std::clamp(kTexelsPerBand / W, 1, H);
   RowMajorXf values(n, static_cast<Eigen::Index>(band_rows) * W * 3);  // row j: image j's band, texel by texel
+  // Per thread, kept from band to band (a fresh allocation per band cost page faults).
+  struct Work {
+    Eigen::MatrixXf coeffs;  // K x columns
+    RowMajorXf residual;     // N x columns
+    Eigen::Array<float, 1, Eigen::Dynamic> sq, sq_loo, pct, pct_n;
+  };
+  std::vector<Work> work(static_cast<size_t>(threads));
   for (int y0 = 0; y0 < H; y0 += band_rows) {
     const int rows = std::min(band_rows, H - y0);
     // Decoding: every thread takes its share of the photographs.
@@ -332,42 +349,43 @@ Result<fitting::ParameterMap> fit_stack(const fs::path& stack, const StackFitOpt
       failed[static_cast<size_t>(v)] = sources[static_cast<size_t>(v)]->read_rows(rows, values.row(v).data());
     });
     for (const Status& s : failed) VDRIG_TRY(s);
-    // Fitting: every thread takes its share of the band's texels, as three matrix products.
+    // Fitting: every thread takes its share of the band's texels, as matrix products and column reductions.
     const int texels = rows * W;
     parallel_for(threads, threads, [&](int w) {
       const int first_texel = texels * w / threads, last_texel = texels * (w + 1) / threads;
       if (first_texel == last_texel) return;
-      const auto v = values.middleCols(3 * first_texel, 3 * (last_texel - first_texel));
-      const Eigen::MatrixXf coeffs = fit_f * v;                                // K x columns
-      const Eigen::MatrixXf residual = basis_f * coeffs - Eigen::MatrixXf(v);  // N x columns
+      Work& k = work[static_cast<size_t>(w)];
+      const int cols = 3 * (last_texel - first_texel);  // column = one channel of one texel
+      const auto v = values.middleCols(3 * first_texel, cols);
+      k.coeffs.noalias() = fit_f * v;
+      k.residual.noalias() = basis_f * k.coeffs;  // row-major like the samples: every pass below reads rows
+      k.residual -= v;
+      k.sq.setZero(cols);
+      k.sq_loo.setZero(cols);
+      k.pct.setZero(cols);
+      k.pct_n.setZero(cols);
+      for (int j = 0; j < n; ++j) {
+        const auto r = k.residual.row(j).array();
+        const auto f = v.row(j).array();
+        k.sq += r.square();
+        k.sq_loo += r.square() * (loo_scale[j] * loo_scale[j]);
+        // Mean percentage error over the samples with a positive value (SharedDirectionLinearFit::residual_quality).
+        k.pct += (f > 0.0f).select(r.abs() / f, 0.0f);
+        k.pct_n += (f > 0.0f).cast<float>();
+      }
       std::vector<double> parameters(static_cast<size_t>(P));
       for (int i = first_texel; i < last_texel; ++i) {
         const int s = i % W, t = H - 1 - (y0 + i / W);  // texel rows grow with y, up in the image
-        fitting::FitQuality q;
-        q.samples = n;
-        Vec3d loo_rms;
         for (int c = 0; c < 3; ++c) {
           const Eigen::Index col = 3 * (i - first_texel) + c;
-          for (int k = 0; k < K; ++k) parameters[static_cast<size_t>(c * K + k)] = coeffs(k, col);
-          double sq = 0, sq_loo = 0, pct = 0;
-          int pct_n = 0;
-          for (int j = 0; j < n; ++j) {
-            const double r = residual(j, col), o = v(j, col);
-            sq += r * r;
-            sq_loo += static_cast<double>(r * loo_scale[j]) * (r * loo_scale[j]);
-            if (o > 0) {
-              pct += std::abs(r) / o * 100.0;
-              ++pct_n;
-            }
-          }
-          q.rms[c] = std::sqrt(sq / n);
-          q.mean_percent[c] = pct_n ? pct / pct_n : 0.0;
-          loo_rms[c] = std::sqrt(sq_loo / n);
+          for (int j = 0; j < K; ++j) parameters[static_cast<size_t>(c * K + j)] = k.coeffs(j, col);
+          // As SharedDirectionLinearFit::residual_quality and ParameterMap::set_quality.
+          rms_channel[c]->at<float>(t, s) = std::sqrt(k.sq[col] / static_cast<float>(n));
+          mpe_channel[c]->at<float>(t, s) = k.pct_n[col] > 0 ? 100.0f * k.pct[col] / k.pct_n[col] : 0.0f;
+          if (loo) loo_channel[c]->at<float>(t, s) = std::sqrt(k.sq_loo[col] / static_cast<float>(n));
         }
+        n_channel.at<float>(t, s) = static_cast<float>(n);
         map.set_parameters(s, t, parameters);
-        map.set_quality(s, t, q);
-        if (loo)
-          for (int c = 0; c < 3; ++c) map.at(c == 0 ? "loo.R" : c == 1 ? "loo.G" : "loo.B", s, t) = loo_rms[c];
       }
     });
     if (options.on_progress) options.on_progress(y0 + rows, H);

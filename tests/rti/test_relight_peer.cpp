@@ -133,8 +133,8 @@ TEST_F(RelightPeer, RelightDrawsVdrigsFilesAsVdrigEvaluatesThem) {
        {Case{"vdrig_ptm", &ptm}, Case{"vdrig_hsh", &hsh}, Case{"vdrig.ptm.web", &ptm}, Case{"vdrig.rti.web", &hsh}}) {
     const double mean = render_error(dir_ / c.folder, *c.map);
     std::printf("relight-cli's render of %s: mean %.2f codes from vdrig's evaluation\n", c.folder, mean);
-    // relight truncates to integers (half a code on average) and requantises on conversion.
-    EXPECT_LT(mean, 1.5) << c.folder;
+    // Measured 0.55-0.60: relight truncates to integers (half a code on average) and requantises on conversion.
+    EXPECT_LT(mean, 0.9) << c.folder;
   }
 }
 
@@ -146,10 +146,12 @@ TEST_F(RelightPeer, VdrigReadsRelightsFitsOfTheSameStack) {
     const char* out;
     double own;
   };
-  for (const Case& c : {Case{{"-b", "ptm", "-p", "18"}, "relight.ptm", own_ptm},
-                        Case{{"-b", "hsh", "-p", "27"}, "relight.rti", own_hsh},
-                        Case{{"-b", "ptm", "-p", "18"}, "relight_ptm", own_ptm},
-                        Case{{"-b", "hsh", "-p", "27"}, "relight_hsh", own_hsh}}) {
+  // `-I srgb` keeps the images' sRGB codes (relight-cli's default converts them to linear RGB first; vdrig's default
+  // fits the codes, docs/rti.md "Colour").
+  for (const Case& c : {Case{{"-I", "srgb", "-b", "ptm", "-p", "18"}, "relight.ptm", own_ptm},
+                        Case{{"-I", "srgb", "-b", "hsh", "-p", "27"}, "relight.rti", own_hsh},
+                        Case{{"-I", "srgb", "-b", "ptm", "-p", "18"}, "relight_ptm", own_ptm},
+                        Case{{"-I", "srgb", "-b", "hsh", "-p", "27"}, "relight_hsh", own_hsh}}) {
     std::vector<std::string> args = c.args;
     args.push_back((dir_ / "stack").string());
     args.push_back((dir_ / c.out).string());
@@ -157,11 +159,26 @@ TEST_F(RelightPeer, VdrigReadsRelightsFitsOfTheSameStack) {
     ASSERT_EQ(r.exit_code, 0) << c.out << ": " << r.out;
     auto map = read_fitted_file(dir_ / c.out);
     ASSERT_TRUE(map) << map.error().describe();
+    // vdrig reads the file as relight itself reads it: relight's own render of it (a .ptm or .rti converted to
+    // its folder first, by relight-cli) is what vdrig evaluates.
+    fs::path folder = dir_ / c.out;
+    if (fs::is_regular_file(folder)) {
+      folder = dir_ / (std::string(c.out) + ".web");
+      relight({(dir_ / c.out).string(), folder.string()});  // exits with SIGFPE after writing (README of the peer)
+      ASSERT_TRUE(fs::exists(folder / "info.json")) << c.out;
+    }
+    const double as_relight_draws = render_error(folder, map.value());
     const double error = stack_error(map.value());
-    std::printf("relight-cli's %s read by vdrig: %.2f codes from the photographs (vdrig's own fit: %.2f)\n", c.out,
-                error, c.own);
-    // Both fit the same codes by least squares; relight's quantisation adds a little.
-    EXPECT_LT(error, c.own + 1.0) << c.out;
+    std::printf(
+        "relight-cli's %s read by vdrig: %.2f codes from relight's own render of it; %.2f codes from the "
+        "photographs (vdrig's own fit: %.2f)\n",
+        c.out, as_relight_draws, error, c.own);
+    EXPECT_LT(as_relight_draws, 0.9) << c.out;  // measured 0.49-0.54 (relight truncates to integers)
+    // Both fit the same codes by least squares, relight's quantisation adds a little; but relight's .ptm writer
+    // clamps each integer bias to 0..255 (see ../shared/peers/relight/README.md), so its .ptm holds what it holds.
+    if (std::string(c.out) != "relight.ptm") {
+      EXPECT_LT(error, c.own + 0.3) << c.out;
+    }
   }
 }
 
