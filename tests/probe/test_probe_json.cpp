@@ -37,6 +37,8 @@ TEST(ProbeJson, LightsRoundTripExactly) {
     EXPECT_EQ(back->lights[k].direction, doc.lights[k].direction) << k;
     EXPECT_EQ(back->lights[k].power, doc.lights[k].power) << k;
     EXPECT_EQ(back->lights[k].solid_angle_sr, doc.lights[k].solid_angle_sr) << k;
+    // Written in degrees (the edge's unit), so exact to a rounding of the conversion.
+    EXPECT_NEAR(back->lights[k].cap_half_angle_rad, doc.lights[k].cap_half_angle_rad, 1e-14) << k;
   }
   // The angles written for reading by eye describe the same direction (azimuth from +x toward +y).
   const auto j = nlohmann::json::parse(text);
@@ -98,6 +100,9 @@ TEST(ProbeJson, MalformedLightsAreErrorsNamingTheProblem) {
   expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3]}]})", "\"solid_angle_sr\"", true);
   expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": -1}]})",
                  "\"solid_angle_sr\"", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": 1, )"
+                        R"("cap_half_angle_deg": 90}]})",
+                 "\"cap_half_angle_deg\" must be a number in [0, 90)", true);
 }
 
 TEST(ProbeJson, MalformedSh9IsAnErrorNamingTheProblem) {
