@@ -40,7 +40,8 @@ struct SoftBound {
   const char* method;
   double error_mean, flicker_mean;  // fractions of mean E
 };
-const SoftBound kSoftBounds[] = {{"soft:16", 0, 0}, {"soft:64", 0, 0}};
+const SoftBound kSoftBounds[] = {{"soft:16", 0.0119, 0.00072},   // measured 0.790 %, 0.0480 %
+                                 {"soft:64", 0.0029, 0.00024}};  // 0.195 %, 0.0161 %
 
 struct Series {
   std::string name;

@@ -188,7 +188,7 @@ cv::Mat render_animation_frame(const SceneCamera& camera, const AnimationScene& 
       const double v = maps[s].visibility(x);
       // The light's whole contribution to the ground, its SH-9 share included: its power through its cap.
       const DirectionalLight& l = lights[shadowing[s]];
-      if (v < 1) e -= (1 - v) * l.power * cap_clamped_cosine(l.direction.z(), l.cap_half_angle_rad);
+      if (v < 1) e -= (1 - v) * l.power * cap_clamped_cosine(l.direction.z(), l.cap_cos_half_angle);
     }
     return scene.ground_albedo.cwiseProduct(e.cwiseMax(0.0)) / kPi;
   };

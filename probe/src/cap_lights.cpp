@@ -8,23 +8,23 @@
 namespace vdrig::probe {
 namespace {
 
-// Below this half-angle the cap is a point to double precision in the quantities used (1 - cos a < 5e-9).
-constexpr double kPointHalfAngleRad = 1e-4;
-constexpr double kMaxHalfAngleRad = 88.0 * kPi / 180.0;
+// Above this cosine (half-angle 1e-4 rad) the cap is a point to the precision of the quantities used.
+constexpr double kPointCos = 1.0 - 5e-9;
+// cos 88 deg: the closed form needs a < 90 deg.
+const double kMinCos = std::cos(88.0 * kPi / 180.0);
 
 }  // namespace
 
-double cap_half_angle_for_mean_length(double mean_length) {
-  const double c = std::clamp(2.0 * mean_length - 1.0, std::cos(kMaxHalfAngleRad), 1.0);
-  const double a = std::acos(c);
-  return a < kPointHalfAngleRad ? 0.0 : a;
+double cap_cos_half_angle_for_mean_length(double mean_length) {
+  const double c = std::clamp(2.0 * mean_length - 1.0, kMinCos, 1.0);
+  return c > kPointCos ? 1.0 : c;
 }
 
-double cap_clamped_cosine(double t, double half_angle_rad) {
+double cap_clamped_cosine(double t, double cos_half_angle) {
   t = std::clamp(t, -1.0, 1.0);
-  if (half_angle_rad < kPointHalfAngleRad) return std::max(0.0, t);
-  const double a = std::min(half_angle_rad, kMaxHalfAngleRad);
-  const double sin_a = std::sin(a), cos_a = std::cos(a);
+  if (cos_half_angle > kPointCos) return std::max(0.0, t);
+  // No trigonometry on the common paths: a renderer calls this per light and pixel.
+  const double cos_a = std::max(cos_half_angle, kMinCos), sin_a = std::sqrt(1.0 - cos_a * cos_a);
   if (t >= sin_a) return 0.5 * (1.0 + cos_a) * t;  // wholly above the horizon: the first moment
   if (t <= -sin_a) return 0.0;                     // wholly below
   // The horizon cuts the cap (Snyder 1996, "Area light sources for real-time graphics"; the form of Lagarde & de
@@ -37,8 +37,8 @@ double cap_clamped_cosine(double t, double half_angle_rad) {
   return std::max(0.0, integral / (2.0 * kPi * (1.0 - cos_a)));
 }
 
-double cap_sh9_clamped_cosine(double t, double half_angle_rad) {
-  const double c = half_angle_rad < kPointHalfAngleRad ? 1.0 : std::cos(std::min(half_angle_rad, kMaxHalfAngleRad));
+double cap_sh9_clamped_cosine(double t, double cos_half_angle) {
+  const double c = cos_half_angle > kPointCos ? 1.0 : std::max(cos_half_angle, kMinCos);
   const double c1 = 0.5 * (1.0 + c), c2 = c * c1;
   return 0.25 + c1 * 0.5 * t + c2 * 5.0 * (3.0 * t * t - 1.0) / 32.0;
 }

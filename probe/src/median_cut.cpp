@@ -90,7 +90,7 @@ DirectionalLight make_light(const Probe& p, const MedianCutRegion& r) {
   const double nw = weighted.norm(), ng = geometric.norm();
   if (nw > 1e-12 * std::max(r.energy, 1e-300)) {
     light.direction = weighted / nw;
-    light.cap_half_angle_rad = cap_half_angle_for_mean_length(r.energy > 0 ? nw / r.energy : 1.0);
+    light.cap_cos_half_angle = cap_cos_half_angle_for_mean_length(r.energy > 0 ? nw / r.energy : 1.0);
   } else if (ng > 1e-12)
     light.direction = geometric / ng;
   else

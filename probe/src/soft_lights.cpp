@@ -13,7 +13,7 @@ Rgb SoftLights::irradiance(const Vec3d& normal) const {
   Rgb e = sh9_irradiance(sh9, normal);
   for (const DirectionalLight& l : lights) {
     const double t = normal.dot(l.direction);
-    e += l.power * (cap_clamped_cosine(t, l.cap_half_angle_rad) - cap_sh9_clamped_cosine(t, l.cap_half_angle_rad));
+    e += l.power * (cap_clamped_cosine(t, l.cap_cos_half_angle) - cap_sh9_clamped_cosine(t, l.cap_cos_half_angle));
   }
   return e;
 }
@@ -64,7 +64,7 @@ SoftLights soft_lights_impl(const std::vector<Vec3d>& dirs, const std::vector<Rg
     const double length = centroid[k].norm(), y = luminance(power[k]);
     l.direction = length > 1e-12 * std::max(1.0, y) ? centroid[k] / length : centres[k];
     // The share's spread as a cap (cap_lights.hpp): continuous in the map like the rest, so it adds no flicker.
-    if (options.cap_spread && y > 0) l.cap_half_angle_rad = cap_half_angle_for_mean_length(length / y);
+    if (options.cap_spread && y > 0) l.cap_cos_half_angle = cap_cos_half_angle_for_mean_length(length / y);
     l.power = power[k];
     l.solid_angle_sr = solid_angle[k];
   }
@@ -115,7 +115,7 @@ SoftLights hybrid_lights(const Probe& probe, int count, bool cap_spread) {
   out.sh9 = project_sh9(probe);
   out.lights = median_cut_any_count(probe, count);
   if (!cap_spread)
-    for (DirectionalLight& l : out.lights) l.cap_half_angle_rad = 0;
+    for (DirectionalLight& l : out.lights) l.cap_cos_half_angle = 1;
   return out;
 }
 

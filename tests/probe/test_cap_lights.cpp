@@ -40,11 +40,11 @@ TEST(CapLights, ClampedCosineOfACapIsItsIntegral) {
       const Vec3d n(std::sqrt(1 - t * t), 0, t);
       double integral = 0;
       for (size_t k = 0; k < dirs.size(); ++k) integral += std::max(0.0, n.dot(dirs[k])) * sr[k];
-      EXPECT_NEAR(cap_clamped_cosine(t, a), integral / omega, 2e-5) << "a " << a_deg << " deg, t " << t;
+      EXPECT_NEAR(cap_clamped_cosine(t, std::cos(a)), integral / omega, 2e-5) << "a " << a_deg << " deg, t " << t;
     }
   }
   // A point: the clamped cosine itself.
-  for (double t : {-0.5, 0.0, 0.7}) EXPECT_EQ(cap_clamped_cosine(t, 0.0), std::max(0.0, t));
+  for (double t : {-0.5, 0.0, 0.7}) EXPECT_EQ(cap_clamped_cosine(t, 1.0), std::max(0.0, t));
 }
 
 TEST(CapLights, Sh9BandLimitIsTheSh9ProjectionOfTheCap) {
@@ -64,18 +64,21 @@ TEST(CapLights, Sh9BandLimitIsTheSh9ProjectionOfTheCap) {
     for (double s : sr) weighted.push_back(Rgb::Constant(s / omega));
     const Sh9 sh = project_sh9(dirs, weighted);
     for (const Vec3d& n : fibonacci_directions(40))
-      EXPECT_NEAR(sh9_irradiance(sh, n).x(), cap_sh9_clamped_cosine(n.z(), a), 1e-5) << a_deg;
+      EXPECT_NEAR(sh9_irradiance(sh, n).x(), cap_sh9_clamped_cosine(n.z(), std::cos(a)), 1e-5) << a_deg;
   }
-  for (double t : {-0.8, 0.1, 0.9}) EXPECT_NEAR(cap_sh9_clamped_cosine(t, 0.0), sh9_clamped_cosine(t), 1e-15);
+  for (double t : {-0.8, 0.1, 0.9}) EXPECT_NEAR(cap_sh9_clamped_cosine(t, 1.0), sh9_clamped_cosine(t), 1e-15);
 }
 
 TEST(CapLights, CapOfAMeanDirectionLength) {
   for (double a_deg : {1.0, 10.0, 30.0, 60.0, 85.0}) {
     const double a = a_deg * kPi / 180;
-    EXPECT_NEAR(cap_half_angle_for_mean_length(0.5 * (1 + std::cos(a))), a, 1e-9) << a_deg;
+    EXPECT_NEAR(cap_cos_half_angle_for_mean_length(0.5 * (1 + std::cos(a))), std::cos(a), 1e-12) << a_deg;
   }
-  EXPECT_EQ(cap_half_angle_for_mean_length(1.0), 0.0);
-  EXPECT_NEAR(cap_half_angle_for_mean_length(0.1), 88 * kPi / 180, 1e-12);  // clamped below 90 deg
+  EXPECT_EQ(cap_cos_half_angle_for_mean_length(1.0), 1.0);
+  EXPECT_EQ(cap_cos_half_angle_for_mean_length(1.0 - 1e-10), 1.0);                        // a point to double precision
+  EXPECT_NEAR(cap_cos_half_angle_for_mean_length(0.1), std::cos(88 * kPi / 180), 1e-12);  // clamped below 90 deg
+  // Clamped the same way inside the kernel: a cap of 89 deg is evaluated as one of 88 deg.
+  EXPECT_EQ(cap_clamped_cosine(0.3, std::cos(89 * kPi / 180)), cap_clamped_cosine(0.3, std::cos(88 * kPi / 180)));
 }
 
 TEST(CapLights, MedianCutToAnyCount) {
@@ -88,8 +91,8 @@ TEST(CapLights, MedianCutToAnyCount) {
     Rgb sum = Rgb::Zero();
     for (const auto& l : lights) {
       sum += l.power;
-      EXPECT_GE(l.cap_half_angle_rad, 0.0);
-      EXPECT_LT(l.cap_half_angle_rad, kPi / 2);
+      EXPECT_GT(l.cap_cos_half_angle, 0.0);
+      EXPECT_LE(l.cap_cos_half_angle, 1.0);
     }
     EXPECT_LT((sum - total).norm(), 1e-6 * total.norm()) << count;
   }

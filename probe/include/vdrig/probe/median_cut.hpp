@@ -30,10 +30,11 @@ struct DirectionalLight {
   Rgb power = Rgb::Zero();           // integral of L over the region's solid angle (L x sr)
   double solid_angle_sr = 0;         // the region's solid angle; power / solid_angle_sr is its mean radiance
   MedianCutRegion region;
-  // The light's spread, for the methods that model it (hybrid:N, soft:N; SoftLights::irradiance): the half-angle of
-  // the uniform cap whose mean direction is as long as the region's luminance-weighted mean direction (cap_lights.hpp).
-  // 0 = a point. median_cut fills it; irradiance_from_lights ignores it (plain median cut stays Debevec's).
-  double cap_half_angle_rad = 0;
+  // The light's spread, for the methods that model it (hybrid:N, soft:N; SoftLights::irradiance): the cosine of the
+  // half-angle of the uniform cap whose mean direction is as long as the region's luminance-weighted mean direction
+  // (cap_lights.hpp). 1 = a point. median_cut fills it; irradiance_from_lights ignores it (plain median cut stays
+  // Debevec's).
+  double cap_cos_half_angle = 1;
 };
 
 /// True for 1, 2, 4, ...

@@ -25,7 +25,7 @@ struct LightsDocument {
 
 /// Text (pretty-printed, newline-terminated) of a "vdrig.probe.lights" file: per light "direction" (unit x, y, z),
 /// "azimuth_deg"/"zenith_deg" of that direction (for reading by eye), "power" (RGB, radiance x sr) and
-/// "solid_angle_sr", and "cap_half_angle_deg" for a light spread over a cap (cap_half_angle_rad > 0: the lights of
+/// "solid_angle_sr", and "cap_half_angle_deg" for a light spread over a cap (cap_cos_half_angle < 1: the lights of
 /// hybrid:N and soft:N are evaluated with it, cap_lights.hpp). The median-cut region of each light is not stored.
 std::string lights_to_json(const LightsDocument& document);
 

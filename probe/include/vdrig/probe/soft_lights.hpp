@@ -10,7 +10,7 @@
 //  - each light adds only what SH-9 cannot hold: power x (K(t) - its SH-9 band limit), t = n . d, K the clamped
 //    cosine seen through the uniform cap with the share's mean direction length (cap_lights.hpp; for a point
 //    K = max(0, t) and the band limit 1/4 + t/2 + 5 (3 t^2 - 1) / 32), so E = sh9_irradiance + sum of those.
-// The lights are directional lights (DirectionalLight, region unset, cap_half_angle_rad set) for a renderer that adds
+// The lights are directional lights (DirectionalLight, region unset, cap_cos_half_angle set) for a renderer that adds
 // the SH-9 term. hybrid_lights builds the same structure from median-cut lights (irradiance_map.hpp, hybrid:N).
 #pragma once
 
@@ -36,7 +36,7 @@ struct SoftLights {
 
   /// E(n) = sh9_irradiance(sh9, n) + sum_k power_k (K_k(n . d_k) - its SH-9 band limit), K_k the clamped cosine
   /// seen through light k's cap (cap_clamped_cosine, cap_sh9_clamped_cosine; max(0, t) and sh9_clamped_cosine for a
-  /// point light, cap_half_angle_rad = 0).
+  /// point light, cap_cos_half_angle = 1).
   Rgb irradiance(const Vec3d& normal) const;
 };
 
