@@ -9,7 +9,9 @@
 //    8 N median-cut regions were lights and the rest of the map went to SH-9: the lights then held 11-45 % of the
 //    power and SH-9's error on the other 55-89 % dominated, whatever N.)
 //  - soft:N: SH-9 plus N soft lights (soft_lights.hpp), continuous in the map: the method for a moving object.
-// A white furnace (constant L) gives E = pi L for every method within 1 % (test_irradiance_map).
+// A white furnace (constant L) gives E = pi L within 0.13 % on average for exact, sh9, mediancut:256 and soft:64,
+// 0.4 % for hybrid:64 and 1.0 % for hybrid:16, whose 16 lights are large regions that their caps only approximate
+// (test_irradiance_map). On real probes see docs/probe.md.
 #pragma once
 
 #include <optional>
