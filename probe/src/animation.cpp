@@ -6,6 +6,8 @@
 #include <numeric>
 #include <thread>
 
+#include "vdrig/probe/cap_lights.hpp"
+
 namespace vdrig::probe {
 namespace {
 
@@ -184,7 +186,9 @@ cv::Mat render_animation_frame(const SceneCamera& camera, const AnimationScene& 
     Rgb e = ground_unshadowed;
     for (size_t s = 0; s < maps.size(); ++s) {
       const double v = maps[s].visibility(x);
-      if (v < 1) e -= (1 - v) * lights[shadowing[s]].power * std::max(0.0, lights[shadowing[s]].direction.z());
+      // The light's whole contribution to the ground, its SH-9 share included: its power through its cap.
+      const DirectionalLight& l = lights[shadowing[s]];
+      if (v < 1) e -= (1 - v) * l.power * cap_clamped_cosine(l.direction.z(), l.cap_cos_half_angle);
     }
     return scene.ground_albedo.cwiseProduct(e.cwiseMax(0.0)) / kPi;
   };

@@ -7,8 +7,6 @@
 namespace vdrig::probe {
 namespace {
 
-constexpr int kHybridRegionsPerLight = 8;
-
 Result<int> parse_count(const std::string& text, const std::string& what) {
   char* end = nullptr;
   const long n = std::strtol(text.c_str(), &end, 10);
@@ -74,22 +72,8 @@ IrradianceModel IrradianceModel::from_latlong_cut(const Probe& probe, const Irra
     return m;
   }
   VDRIG_CHECK(spec.method == IrradianceMethod::kHybrid && spec.light_count >= 1, "hybrid needs a light count");
-  int regions = 1;
-  while (regions < kHybridRegionsPerLight * spec.light_count) regions *= 2;
-  std::vector<DirectionalLight> cut = median_cut(probe, regions);
-  // Highest mean radiance first: power / solid angle (equal energies, so the smallest regions).
-  std::sort(cut.begin(), cut.end(), [](const DirectionalLight& a, const DirectionalLight& b) {
-    return luminance(a.power) * b.solid_angle_sr > luminance(b.power) * a.solid_angle_sr;
-  });
-  cut.resize(std::min<size_t>(cut.size(), spec.light_count));
-  Probe rest = probe;
-  rest.radiance = probe.radiance.clone();
-  for (const DirectionalLight& l : cut) {
-    const MedianCutRegion& r = l.region;
-    rest.radiance(cv::Rect(r.x0, r.y0, r.x1 - r.x0, r.y1 - r.y0)).setTo(cv::Scalar::all(0));
-  }
-  m.lights_ = std::move(cut);
-  m.sh9_ = project_sh9(rest);
+  m.soft_ = hybrid_lights(probe, spec.light_count);
+  m.sh9_ = m.soft_->sh9;
   return m;
 }
 

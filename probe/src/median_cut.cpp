@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vdrig/probe/cap_lights.hpp"
+
 namespace vdrig::probe {
 namespace {
 
@@ -86,9 +88,10 @@ DirectionalLight make_light(const Probe& p, const MedianCutRegion& r) {
   // The energy centroid as a mean direction (wraps and handles the poles, unlike a centroid in pixel coordinates);
   // a dark region, or one whose directions cancel, falls back to its solid-angle centroid, then to its middle.
   const double nw = weighted.norm(), ng = geometric.norm();
-  if (nw > 1e-12 * std::max(r.energy, 1e-300))
+  if (nw > 1e-12 * std::max(r.energy, 1e-300)) {
     light.direction = weighted / nw;
-  else if (ng > 1e-12)
+    light.cap_cos_half_angle = cap_cos_half_angle_for_mean_length(r.energy > 0 ? nw / r.energy : 1.0);
+  } else if (ng > 1e-12)
     light.direction = geometric / ng;
   else
     light.direction = latlong_direction(0.5 * (r.x0 + r.x1) - 0.5, 0.5 * (r.y0 + r.y1) - 0.5, W, H);
@@ -99,11 +102,16 @@ DirectionalLight make_light(const Probe& p, const MedianCutRegion& r) {
 
 std::vector<DirectionalLight> median_cut(const Probe& probe, int count) {
   VDRIG_CHECK(is_power_of_two(count), "median cut needs a power-of-two light count");
+  return median_cut_any_count(probe, count);
+}
+
+std::vector<DirectionalLight> median_cut_any_count(const Probe& probe, int count) {
+  VDRIG_CHECK(count >= 1, "median cut needs at least one light");
   const EnergyTable table(probe);
   std::vector<MedianCutRegion> regions{{0, 0, probe.width(), probe.height(), 0.0}};
   regions[0].energy = table.sum(regions[0]);
-  // k = log2(count) rounds, each splitting every region once (Debevec's recursion, breadth first).
-  for (int round = 1; round < count; round *= 2) {
+  // floor(log2(count)) rounds, each splitting every region once (Debevec's recursion, breadth first).
+  for (int round = 1; 2 * round <= count; round *= 2) {
     std::vector<MedianCutRegion> next;
     next.reserve(2 * regions.size());
     for (const auto& r : regions) {
@@ -118,8 +126,9 @@ std::vector<DirectionalLight> median_cut(const Probe& probe, int count) {
     if (next.size() == regions.size()) break;  // every region is a single pixel
     regions = std::move(next);
   }
-  // Rounds that met single-pixel regions left fewer than `count`: split the most energetic splittable regions
-  // until the count is reached, which keeps the energies as even as the pixel grid allows.
+  // A count that is not a power of two, or rounds that met single-pixel regions, left fewer than `count`: split the
+  // most energetic splittable regions until the count is reached, which keeps the energies as even as the pixel grid
+  // allows.
   while (static_cast<int>(regions.size()) < count) {
     int best = -1;
     MedianCutRegion a, b;

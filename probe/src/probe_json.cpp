@@ -78,6 +78,8 @@ std::string lights_to_json(const LightsDocument& document) {
     e["direction"] = {l.direction.x(), l.direction.y(), l.direction.z()};
     e["power"] = rgb_json(l.power);
     e["solid_angle_sr"] = l.solid_angle_sr;
+    // Only for lights spread over a cap (hybrid:N, soft:N; cap_lights.hpp): a renderer reproduces E with it.
+    if (l.cap_cos_half_angle < 1) e["cap_half_angle_deg"] = rad_to_deg(std::acos(l.cap_cos_half_angle));
     j["lights"].push_back(e);
   }
   return j.dump(2) + "\n";
@@ -104,6 +106,11 @@ Result<LightsDocument> lights_from_json(const std::string& text) {
     if (sr == e.end() || !sr->is_number() || !std::isfinite(sr->get<double>()) || sr->get<double>() < 0)
       return corrupt(where + ": \"solid_angle_sr\" must be a finite number >= 0");
     l.solid_angle_sr = sr->get<double>();
+    if (const auto cap = e.find("cap_half_angle_deg"); cap != e.end()) {
+      if (!cap->is_number() || !(cap->get<double>() >= 0 && cap->get<double>() < 90))
+        return corrupt(where + ": \"cap_half_angle_deg\" must be a number in [0, 90)");
+      l.cap_cos_half_angle = std::cos(deg_to_rad(cap->get<double>()));
+    }
     doc.lights.push_back(l);
   }
   return doc;

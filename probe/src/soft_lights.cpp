@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vdrig/probe/cap_lights.hpp"
+
 namespace vdrig::probe {
 
 double sh9_clamped_cosine(double t) { return 0.25 + 0.5 * t + 5.0 * (3.0 * t * t - 1.0) / 32.0; }
@@ -11,7 +13,7 @@ Rgb SoftLights::irradiance(const Vec3d& normal) const {
   Rgb e = sh9_irradiance(sh9, normal);
   for (const DirectionalLight& l : lights) {
     const double t = normal.dot(l.direction);
-    e += l.power * (std::max(0.0, t) - sh9_clamped_cosine(t));
+    e += l.power * (cap_clamped_cosine(t, l.cap_cos_half_angle) - cap_sh9_clamped_cosine(t, l.cap_cos_half_angle));
   }
   return e;
 }
@@ -59,8 +61,10 @@ SoftLights soft_lights_impl(const std::vector<Vec3d>& dirs, const std::vector<Rg
   for (int k = 0; k < K; ++k) {
     DirectionalLight& l = out.lights[k];
     // A dark share has no centroid: keep the light at its centre direction (its power is 0 anyway).
-    l.direction =
-        centroid[k].norm() > 1e-12 * std::max(1.0, luminance(power[k])) ? centroid[k].normalized() : centres[k];
+    const double length = centroid[k].norm(), y = luminance(power[k]);
+    l.direction = length > 1e-12 * std::max(1.0, y) ? centroid[k] / length : centres[k];
+    // The share's spread as a cap (cap_lights.hpp): continuous in the map like the rest, so it adds no flicker.
+    if (options.cap_spread && y > 0) l.cap_cos_half_angle = cap_cos_half_angle_for_mean_length(length / y);
     l.power = power[k];
     l.solid_angle_sr = solid_angle[k];
   }
@@ -102,6 +106,16 @@ SoftLights soft_lights(const CubeMap& cube, const SoftLightOptions& options) {
       for (int i = 0; i < N; ++i) sas.push_back(cube_texel_solid_angle(i, j, N));
   SoftLights out = soft_lights_impl(dirs, weighted, sas, options);
   out.sh9 = project_sh9(dirs, weighted);
+  return out;
+}
+
+SoftLights hybrid_lights(const Probe& probe, int count, bool cap_spread) {
+  VDRIG_CHECK(count >= 1, "hybrid lights need count >= 1");
+  SoftLights out;
+  out.sh9 = project_sh9(probe);
+  out.lights = median_cut_any_count(probe, count);
+  if (!cap_spread)
+    for (DirectionalLight& l : out.lights) l.cap_cos_half_angle = 1;
   return out;
 }
 

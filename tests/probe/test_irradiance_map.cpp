@@ -1,8 +1,12 @@
 // Irradiance maps (irradiance_map.hpp): the white furnace for every method on lat-long and cube maps, the method
-// parser, the output layout, and hybrid against median cut and SH-9 on a real probe.
+// parser, the output layout, hybrid against median cut and SH-9 on a real probe, and every method on the three real
+// probes against the brute-force convolution (issue 28).
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "probe_support.hpp"
 #include "vdrig/probe/irradiance_map.hpp"
@@ -13,7 +17,19 @@ namespace {
 using testing::load_real_probe;
 using testing::synthetic_probe;
 
-const char* const kMethods[] = {"exact", "sh9", "mediancut:256", "hybrid:16", "soft:64"};
+// The white-furnace methods and their bounds on the mean |E / (pi L) - 1|, lat-long and cube: about 1.5x the measured
+// values (docs/probe.md's table). hybrid:16's lights are 16 regions of 0.8 sr, whose shapes (lat-long rectangles,
+// some with a corner at a pole) a cap only approximates: their remainder over SH-9 does not quite cancel.
+struct FurnaceCase {
+  const char* method;
+  double latlong_bound, cube_bound;
+};
+const FurnaceCase kMethods[] = {{"exact", 2.6e-5, 3.3e-5},          // measured 0.0017, 0.0022 %
+                                {"sh9", 2.4e-5, 1e-6},              // 0.0016, 0.0000 %
+                                {"mediancut:256", 0.0019, 0.0016},  // 0.127, 0.103 %
+                                {"hybrid:16", 0.0134, 0.0154},      // 0.89, 1.02 %
+                                {"hybrid:64", 0.0059, 0.0052},      // 0.39, 0.34 %
+                                {"soft:64", 0.00038, 0.00044}};     // 0.025, 0.029 %
 
 IrradianceMethodSpec method(const std::string& text) {
   auto m = parse_irradiance_method(text);
@@ -34,13 +50,14 @@ struct Furnace {
 TEST(IrradianceMap, WhiteFurnaceLatLong) {
   const double L = 0.7;
   const Probe white = synthetic_probe(128, [L](const Vec3d&) { return Rgb::Constant(L); });
-  for (const char* text : kMethods) {
+  for (const FurnaceCase& c : kMethods) {
+    const char* text = c.method;
     const Probe e = irradiance_latlong(IrradianceModel::build(white, method(text)), 64);
     Furnace f;
     for (int j = 0; j < e.height(); ++j)
       for (int i = 0; i < e.width(); ++i) f.add(e.pixel(i, j), kPi * L, 1.0 / (e.width() * e.height()));
     std::printf("white furnace, lat-long, %-14s mean %.4f %%, max %.4f %%\n", text, 100 * f.mean, 100 * f.max);
-    EXPECT_LT(f.mean, 0.01) << text;
+    EXPECT_LT(f.mean, c.latlong_bound) << text;
   }
 }
 
@@ -48,7 +65,8 @@ TEST(IrradianceMap, WhiteFurnaceCube) {
   const double L = 2.5;
   CubeMap white = make_cube_map(32);
   for (cv::Mat& face : white.faces) face.setTo(cv::Scalar::all(L));
-  for (const char* text : kMethods) {
+  for (const FurnaceCase& c : kMethods) {
+    const char* text = c.method;
     const CubeMap e = irradiance_cube(IrradianceModel::build(white, method(text)), 16);
     Furnace f;
     for (int face = 0; face < kCubeFaceCount; ++face)
@@ -56,7 +74,7 @@ TEST(IrradianceMap, WhiteFurnaceCube) {
         for (int i = 0; i < 16; ++i)
           f.add(e.texel(static_cast<CubeFace>(face), i, j), kPi * L, cube_texel_solid_angle(i, j, 16) / (4 * kPi));
     std::printf("white furnace, cube,     %-14s mean %.4f %%, max %.4f %%\n", text, 100 * f.mean, 100 * f.max);
-    EXPECT_LT(f.mean, 0.01) << text;
+    EXPECT_LT(f.mean, c.cube_bound) << text;
   }
 }
 
@@ -106,6 +124,58 @@ TEST(IrradianceMap, HybridBeatsSh9AndKeepsMedianCutsAccuracyOnTheInterior) {
   EXPECT_LT(hybrid.mean, 0.5 * sh9.mean);
   EXPECT_LT(hybrid.mean, mc.mean);
   EXPECT_LT(stats("exact").max, 1e-5);
+}
+
+// Every method on the three real probes (loaded at 256 x 128) against the brute-force convolution of the same map,
+// at the centre normal of every pixel of a 64 x 32 map: solid-angle-weighted mean of |Y - Y_ref| / Y_ref (the measure
+// of bench_probe_irradiance, which runs it on the full 1024 x 512 maps for docs/probe.md). Bounds about 1.5x the
+// measured value (courtyard, interior, studio; measured values in the comments).
+TEST(IrradianceMap, EveryMethodOnTheRealProbesAgainstTheBruteForceConvolution) {
+  struct Case {
+    const char* method;
+    double bound[3];
+  };
+  // clang-format off
+  const Case cases[] = {
+      {"sh9", {0.071, 0.075, 0.13}},             // measured 4.71, 4.96, 8.69 %
+      {"mediancut:16", {0.054, 0.076, 0.12}},    // 3.61, 5.07, 8.02 %
+      {"mediancut:64", {0.027, 0.014, 0.012}},   // 1.83, 0.94, 0.78 %
+      {"hybrid:16", {0.026, 0.016, 0.029}},      // 1.72, 1.04, 1.95 % (before issue 28: 3-7 %)
+      {"hybrid:64", {0.011, 0.0051, 0.0047}},    // 0.76, 0.34, 0.31 % (before: 1.4-7.5 %)
+      {"soft:16", {0.017, 0.030, 0.0081}},       // 1.10, 1.98, 0.54 %
+      {"soft:64", {0.0043, 0.0080, 0.011}},      // 0.29, 0.53, 0.71 %
+  };
+  // clang-format on
+  const int W = 64, H = 32;
+  std::vector<Vec3d> normals;
+  std::vector<double> weights;
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      normals.push_back(latlong_direction(i, j, W, H));
+      weights.push_back(latlong_pixel_solid_angle(j, W, H) / (4 * kPi));
+    }
+  std::map<std::string, std::vector<double>> measured;
+  for (int k = 0; k < 3; ++k) {
+    Probe p;
+    ASSERT_TRUE(load_real_probe(testing::kRealProbes[k], &p, 256));
+    const std::vector<Rgb> ref = reference_irradiance(p, normals);
+    for (const Case& c : cases) {
+      const IrradianceModel m = IrradianceModel::build(p, method(c.method));
+      double mean = 0;
+      for (size_t n = 0; n < normals.size(); ++n)
+        mean += weights[n] * std::abs(luminance(m.irradiance(normals[n])) / luminance(ref[n]) - 1);
+      std::printf("%-10s %-14s mean %.3f %% (bound %.2f %%)\n", testing::kRealProbes[k], c.method, 100 * mean,
+                  100 * c.bound[k]);
+      EXPECT_LT(mean, c.bound[k]) << c.method << " on " << testing::kRealProbes[k];
+      measured[c.method].push_back(mean);
+    }
+    // What issue 28 asked: the hybrid beats median cut at equal light count on every real probe.
+    for (const char* n : {"16", "64"})
+      EXPECT_LT(measured[std::string("hybrid:") + n][k], measured[std::string("mediancut:") + n][k])
+          << n << " lights on " << testing::kRealProbes[k];
+  }
+  const auto& h = measured["hybrid:64"];
+  EXPECT_LT((h[0] + h[1] + h[2]) / 3, 0.01) << "hybrid:64 must stay under 1 % on average";
 }
 
 }  // namespace

@@ -37,6 +37,9 @@ TEST(ProbeJson, LightsRoundTripExactly) {
     EXPECT_EQ(back->lights[k].direction, doc.lights[k].direction) << k;
     EXPECT_EQ(back->lights[k].power, doc.lights[k].power) << k;
     EXPECT_EQ(back->lights[k].solid_angle_sr, doc.lights[k].solid_angle_sr) << k;
+    // Written as a half-angle in degrees (the edge's unit), so exact to a rounding of the conversion.
+    EXPECT_LT(doc.lights[k].cap_cos_half_angle, 1.0) << k;
+    EXPECT_NEAR(back->lights[k].cap_cos_half_angle, doc.lights[k].cap_cos_half_angle, 1e-14) << k;
   }
   // The angles written for reading by eye describe the same direction (azimuth from +x toward +y).
   const auto j = nlohmann::json::parse(text);
@@ -98,6 +101,9 @@ TEST(ProbeJson, MalformedLightsAreErrorsNamingTheProblem) {
   expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3]}]})", "\"solid_angle_sr\"", true);
   expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": -1}]})",
                  "\"solid_angle_sr\"", true);
+  expect_corrupt(head + R"("lights": [{"direction": [0, 0, 1], "power": [1, 2, 3], "solid_angle_sr": 1, )"
+                        R"("cap_half_angle_deg": 90}]})",
+                 "\"cap_half_angle_deg\" must be a number in [0, 90)", true);
 }
 
 TEST(ProbeJson, MalformedSh9IsAnErrorNamingTheProblem) {

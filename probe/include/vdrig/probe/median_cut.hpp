@@ -30,6 +30,11 @@ struct DirectionalLight {
   Rgb power = Rgb::Zero();           // integral of L over the region's solid angle (L x sr)
   double solid_angle_sr = 0;         // the region's solid angle; power / solid_angle_sr is its mean radiance
   MedianCutRegion region;
+  // The light's spread, for the methods that model it (hybrid:N, soft:N; SoftLights::irradiance): the cosine of the
+  // half-angle of the uniform cap whose mean direction is as long as the region's luminance-weighted mean direction
+  // (cap_lights.hpp). 1 = a point. median_cut fills it; irradiance_from_lights ignores it (plain median cut stays
+  // Debevec's).
+  double cap_cos_half_angle = 1;
 };
 
 /// True for 1, 2, 4, ...
@@ -38,6 +43,10 @@ constexpr bool is_power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
 /// `count` lights (a power of two; VDRIG_CHECKed) from the probe's map (fewer only if the map has fewer pixels).
 /// The lights' powers sum to total_power(probe) up to rounding.
 std::vector<DirectionalLight> median_cut(const Probe& probe, int count);
+
+/// The same for any count >= 1 (VDRIG_CHECKed): floor(log2 count) rounds, then the most energetic regions are split
+/// one at a time until `count`. For a power of two it is median_cut exactly.
+std::vector<DirectionalLight> median_cut_any_count(const Probe& probe, int count);
 
 /// Irradiance at normal n from a set of directional lights: sum of power_k max(0, n . d_k).
 Rgb irradiance_from_lights(const std::vector<DirectionalLight>& lights, const Vec3d& normal);

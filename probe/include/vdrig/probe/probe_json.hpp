@@ -25,12 +25,14 @@ struct LightsDocument {
 
 /// Text (pretty-printed, newline-terminated) of a "vdrig.probe.lights" file: per light "direction" (unit x, y, z),
 /// "azimuth_deg"/"zenith_deg" of that direction (for reading by eye), "power" (RGB, radiance x sr) and
-/// "solid_angle_sr". The median-cut region of each light is not stored.
+/// "solid_angle_sr", and "cap_half_angle_deg" for a light spread over a cap (cap_cos_half_angle < 1: the lights of
+/// hybrid:N and soft:N are evaluated with it, cap_lights.hpp). The median-cut region of each light is not stored.
 std::string lights_to_json(const LightsDocument& document);
 
 /// Parses lights_to_json's text. The direction is read from "direction" (the angles are ignored). Errors
 /// (kCorrupt, naming the field): text that is not JSON, another format or version, a missing or mistyped field,
-/// a direction that is not unit length (1e-6), a negative or non-finite power or solid angle. Never throws.
+/// a direction that is not unit length (1e-6), a negative or non-finite power or solid angle, a cap half-angle outside
+/// [0, 90) deg (optional; 0 when absent). Never throws.
 Result<LightsDocument> lights_from_json(const std::string& text);
 
 /// SH-9 radiance of one probe: `source` names the probe file it came from (informational).
