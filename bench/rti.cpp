@@ -54,10 +54,10 @@ Run run(const std::vector<std::string>& args) {
   return r;
 }
 
-/// relight-cli (the peer, scripts/build_relight): $VDRIG_RELIGHT_CLI or build/peers/relight/build/relight-cli.
+/// relight-cli (the peer, scripts/build_relight): $VDRIG_RELIGHT_CLI or build/peers/relight/build/relight-cli/relight-cli.
 std::string relight_cli() {
   if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && *env) return env;
-  return (fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli").string();
+  return (fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli/relight-cli").string();
 }
 
 void print_row(const char* stack, const char* tool, const char* job, const std::vector<Run>& steps) {
@@ -79,7 +79,7 @@ void print_row(const char* stack, const char* tool, const char* job, const std::
 int main() {
   const std::string vdrig = VDRIG_CLI_PATH;
   const std::string relight = relight_cli();
-  const bool have_relight = fs::exists(relight);
+  const bool have_relight = fs::is_regular_file(relight);
   if (!have_relight)
     std::printf(
         "relight-cli (the peer) is not built: its rows are skipped (scripts/build_relight, or set "

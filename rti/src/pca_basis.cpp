@@ -86,21 +86,26 @@ double RbfBasis::table(int p, int i, int k) const {
   return p == 0 ? byte / 255.0 : (byte - 127.0) / range[static_cast<size_t>(p - 1)];
 }
 
+double openlime_epsilon(const std::vector<Vec3d>& lights, const Vec3d& light) {
+  // openlime.js AdaptiveRBF(samples, alpha = 8, k = 24), beta = 2; k is unused there: every light takes part.
+  // The width adapts to how far the lights are: eps = alpha / (Σ d e^(-beta d) / Σ e^(-beta d)).
+  constexpr double kAlpha = 8.0, kBeta = 2.0;
+  double num = 0.0, den = 0.0;
+  for (const Vec3d& l : lights) {
+    const double d = (l - light).norm();
+    num += d * std::exp(-kBeta * d);
+    den += std::exp(-kBeta * d);
+  }
+  return kAlpha / (num / den);
+}
+
 std::vector<double> rbf_weights(const std::vector<Vec3d>& lights, const Vec3d& light, RbfWeights kind, double sigma) {
   const size_t n = lights.size();
   std::vector<double> w(n, 0.0), dist(n);
   for (size_t i = 0; i < n; ++i) dist[i] = (lights[i] - light).norm();
   double total = 0.0;
   if (kind == RbfWeights::kOpenLime) {
-    // openlime.js AdaptiveRBF(samples, alpha = 8, k = 24), beta = 2; k is unused there: every light takes part.
-    // The width adapts to how far the lights are: eps = alpha / (Σ d e^(-beta d) / Σ e^(-beta d)).
-    constexpr double kAlpha = 8.0, kBeta = 2.0;
-    double num = 0.0, den = 0.0;
-    for (double d : dist) {
-      num += d * std::exp(-kBeta * d);
-      den += std::exp(-kBeta * d);
-    }
-    const double epsilon = kAlpha / (num / den);
+    const double epsilon = openlime_epsilon(lights, light);
     for (size_t i = 0; i < n; ++i) total += w[i] = std::exp(-epsilon * dist[i] * dist[i]);
     for (double& x : w) x /= total;
     return w;
@@ -234,10 +239,15 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
   // 2. The table: W(j, i) = OpenLIME's weight of light i when rendering at light j. Deconvolve so that W times the
   // table is the eigenvectors (and the mean) at the lights.
   MatrixXd W(N, N);
+  double mean_epsilon = 0.0;
   for (int j = 0; j < N; ++j) {
+    mean_epsilon += openlime_epsilon(out.lights, out.lights[static_cast<size_t>(j)]) / N;
     const std::vector<double> w = rbf_weights(out.lights, out.lights[static_cast<size_t>(j)], RbfWeights::kOpenLime);
     for (int i = 0; i < N; ++i) W(j, i) = w[static_cast<size_t>(i)];
   }
+  // relight's own renderers (relight-cli -L, relight's web viewer) use exp(-d^2 / sigma^2) instead: this sigma
+  // gives them about the width OpenLIME uses, so they show nearly what OpenLIME shows.
+  out.sigma = 1.0 / std::sqrt(mean_epsilon);
   // Column p of `table` is plane p (p = 0 the mean), rows (light i, channel k) at 3 i + k.
   MatrixXd table(D, P + 1);
   table.col(0) = mean;

@@ -5,7 +5,7 @@
 //
 // relight-cli is the peer: it renders vdrig's folder with its own loader and renderer (src/rti.cpp), and its
 // folder is rendered here with the weights OpenLIME uses, so the two fits are compared as OpenLIME shows them.
-// Tests needing it skip, naming it, when it is absent (build/peers/relight/build/relight-cli or
+// Tests needing it skip, naming it, when it is absent (build/peers/relight/build/relight-cli/relight-cli or
 // $VDRIG_RELIGHT_CLI).
 #include <gtest/gtest.h>
 
@@ -35,9 +35,9 @@ bool held_out_view(int v) { return v % 9 == 4; }  // 32 of 289, spread along the
 
 fs::path relight_cli() {
   if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && *env) return env;
-  return fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli";
+  return fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli/relight-cli";
 }
-bool have_relight_cli() { return fs::exists(relight_cli()); }
+bool have_relight_cli() { return fs::is_regular_file(relight_cli()); }
 #define REQUIRE_RELIGHT_CLI()                                                                                        \
   if (!have_relight_cli())                                                                                           \
   GTEST_SKIP() << "relight-cli (the peer) is not built: run scripts/build_relight or set VDRIG_RELIGHT_CLI (looked " \
@@ -204,10 +204,11 @@ TEST_F(Rbf, HeldOutLightsBesideHsh27) {
   std::printf("  vdrig rbf-9 (OpenLIME weights):             %.3f / %.3f\n", rbf.rms(), rbf.mean_abs());
   std::printf("  vdrig rbf-9 without deconvolution:          %.3f / %.3f\n", rbf_plain.rms(), rbf_plain.mean_abs());
   std::printf("  vdrig hsh:3 (unquantised fit):              %.3f / %.3f\n", hsh.rms(), hsh.mean_abs());
-  // Bounds ~1.5x the measured figures (docs/rti.md).
-  EXPECT_LT(rbf.rms(), 99.0);
-  EXPECT_LT(hsh.rms(), 99.0);
-  EXPECT_LE(rbf.rms(), rbf_plain.rms()) << "the deconvolved table is the point of vdrig's fit";
+  // Bounds ~1.5x the measured figures (docs/rti.md: 1.07, 0.88; 7.0 without the deconvolution).
+  EXPECT_LT(rbf.rms(), 1.6);
+  EXPECT_LT(rbf.mean_abs(), 1.05);
+  EXPECT_LT(hsh.rms(), 1.3);
+  EXPECT_LT(rbf.rms(), rbf_plain.rms() / 4) << "the deconvolved table is the point of vdrig's fit";
 }
 
 /// Runs relight-cli; its stdout and stderr for the failure message.
@@ -244,7 +245,9 @@ TEST_F(Rbf, RelightCliRendersVdrigsFolderAsVdrigDoes) {
     }
   }
   std::printf("relight-cli vs vdrig rendering vdrig's folder: RMS %.4f, max %.0f codes\n", diff.rms(), worst);
-  EXPECT_LE(worst, 99.0);
+  // Measured: identical. A code where float and double round differently before relight's truncation.
+  EXPECT_LE(worst, 1.0);
+  EXPECT_LT(diff.rms(), 0.05);
 }
 
 // relight-cli -b rbf on the same JPEGs without the held-out lights, both folders shown with OpenLIME's weights.
@@ -275,14 +278,21 @@ TEST_F(Rbf, AtLeastAsAccurateAsRelightCli) {
   ErrorSum relight_own;  // relight-cli's own renderer on its own folder
   for (const Vec3d& l : shared->held_out_lights)
     add_image(relight_own, shared->stack, relight_render(out, l, shared->dir / "own.png"), l);
+  ErrorSum ours_relight_own;  // vdrig's folder in relight-cli's renderer (its sigma approximates OpenLIME's width)
+  for (const Vec3d& l : shared->held_out_lights)
+    add_image(ours_relight_own, shared->stack, relight_render(shared->folder, l, shared->dir / "ours.png"), l);
   std::printf("held-out lights: RMS / mean |error| in codes\n");
+  std::printf("  vdrig rbf-9, relight-cli's renderer:         %.3f / %.3f\n", ours_relight_own.rms(),
+              ours_relight_own.mean_abs());
   std::printf("  vdrig rbf-9, OpenLIME weights:               %.3f / %.3f\n", ours.rms(), ours.mean_abs());
   std::printf("  relight-cli rbf-9, OpenLIME weights:         %.3f / %.3f\n", relight_openlime.rms(),
               relight_openlime.mean_abs());
   std::printf("  relight-cli rbf-9, relight-cli's renderer:   %.3f / %.3f\n", relight_own.rms(),
               relight_own.mean_abs());
+  // Measured 1.07 against 7.2 (OpenLIME) and 3.3 (relight-cli's renderer).
   EXPECT_LE(ours.rms(), relight_openlime.rms());
   EXPECT_LE(ours.rms(), relight_own.rms());
+  EXPECT_LE(ours_relight_own.rms(), relight_own.rms()) << "in relight's own viewer too";
 }
 
 }  // namespace

@@ -49,7 +49,7 @@ struct RbfBasis {
   int width = 0, height = 0;  // texels; plane rows are image rows, top first (texel row t is row height - 1 - t)
   int planes = 0;             // nplanes, a multiple of 3
   std::vector<Vec3d> lights;  // unit directions, one per table entry
-  double sigma = 0.125;       // relight-cli's own renderer's Gaussian width (OpenLIME ignores it)
+  double sigma = 0.125;       // relight's own renderers' Gaussian width (OpenLIME ignores it); fit: OpenLIME's mean
   /// (planes + 1) x lights x 3 bytes, entry (p, i, k) at (p * lights + i) * 3 + k, as info.json's "basis".
   std::vector<uint8_t> basis;
   std::vector<double> range, scale, bias;  // per plane, as materials[0]
@@ -69,6 +69,9 @@ enum class RbfWeights {
   kOpenLime,    // openlime.js AdaptiveRBF(samples, alpha 8): what OpenLIME shows
   kRelightCli,  // relight's Rti::lightWeightsRbf: exp(-|l - l_i|^2 / sigma^2), weights below 0.001 dropped
 };
+
+/// OpenLIME's AdaptiveRBF kernel width at `light`: alpha 8 over the smooth minimum distance to `lights`.
+double openlime_epsilon(const std::vector<Vec3d>& lights, const Vec3d& light);
 
 /// The interpolation weights over `lights` for the unit direction `light` (they sum to 1).
 std::vector<double> rbf_weights(const std::vector<Vec3d>& lights, const Vec3d& light, RbfWeights kind,
