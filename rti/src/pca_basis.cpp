@@ -227,12 +227,23 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
   MatrixXd C = cov[0].selfadjointView<Eigen::Lower>();
   C = (C - n * mean * mean.transpose()) / n;
   progress("eigenvectors", 0, 1);
-  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(C);
-  if (eig.info() != Eigen::Success) return make_error(ErrorCode::kInternal, "PCA eigen-decomposition failed");
+  // Only the P leading eigenvectors are needed: subspace iteration on P + 8 vectors costs D^2 (P + 8) per step
+  // instead of the full decomposition's ~10 D^3 (867 x 867 at 289 lights: ~0.1 s instead of ~1.5 s). RTI stacks
+  // have a steep spectrum (9 planes keep > 99.9% of the variance), so a few dozen steps converge.
+  const int k = std::min(D, P + 8);
+  MatrixXd Q = MatrixXd::Zero(D, k);
+  for (int j = 0; j < k; ++j)  // deterministic start: spread unit vectors plus a ramp, so no column is orthogonal
+    for (int r = 0; r < D; ++r) Q(r, j) = (r % k == j ? 1.0 : 0.0) + 1e-3 * std::cos(0.37 * (r + 1) * (j + 1));
+  for (int step = 0; step < 40; ++step) {
+    const MatrixXd CQ = C * Q;
+    Q = Eigen::HouseholderQR<MatrixXd>(CQ).householderQ() * MatrixXd::Identity(D, k);
+  }
+  Eigen::SelfAdjointEigenSolver<MatrixXd> small(Q.transpose() * C * Q);  // Rayleigh-Ritz
+  if (small.info() != Eigen::Success) return make_error(ErrorCode::kInternal, "PCA eigen-decomposition failed");
   MatrixXd E(D, P);  // leading eigenvectors first (the solver sorts ascending)
-  for (int p = 0; p < P; ++p) E.col(p) = eig.eigenvectors().col(D - 1 - p);
-  double kept = 0.0, total = eig.eigenvalues().sum();
-  for (int p = 0; p < P; ++p) kept += eig.eigenvalues()(D - 1 - p);
+  for (int p = 0; p < P; ++p) E.col(p) = Q * small.eigenvectors().col(k - 1 - p);
+  double kept = 0.0, total = C.trace();
+  for (int p = 0; p < P; ++p) kept += small.eigenvalues()(k - 1 - p);
   log::get("rti")->info("rbf: PCA of {} texels x {} lights, {} planes keep {:.4f} of the variance", count[0], N, P,
                         total > 0 ? kept / total : 1.0);
 
