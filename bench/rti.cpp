@@ -54,7 +54,7 @@ Run run(const std::vector<std::string>& args) {
   return r;
 }
 
-/// relight-cli (the peer, scripts/build_relight): $VDRIG_RELIGHT_CLI or build/peers/relight/build/relight-cli/relight-cli.
+/// relight-cli (the peer, scripts/build_relight): $VDRIG_RELIGHT_CLI, or where the script builds it.
 std::string relight_cli() {
   if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && *env) return env;
   return (fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli/relight-cli").string();
