@@ -400,6 +400,7 @@ Status write_relight_rbf(const RbfBasis& b, const fs::path& out) {
 }
 
 Result<RbfBasis> read_relight_rbf(const fs::path& where) {
+  if (!fs::exists(where)) return make_error(ErrorCode::kNotFound, where.string() + " does not exist");
   const fs::path folder = fs::is_directory(where) ? where : where.parent_path();
   const fs::path info_path = folder / "info.json";
   std::ifstream in(info_path);

@@ -211,6 +211,40 @@ TEST_F(Rbf, HeldOutLightsBesideHsh27) {
   EXPECT_LT(rbf.rms(), rbf_plain.rms() / 4) << "the deconvolved table is the point of vdrig's fit";
 }
 
+// A stack imported as linear radiance (--response sRGB) is put back through the sRGB curve: the viewer must still
+// show the photographs' codes.
+TEST_F(Rbf, SrgbImportShowsTheCodes) {
+  ImportOptions import;
+  import.linearisation = Linearisation::parse("sRGB").value();
+  ASSERT_TRUE(import_stack(shared->stack.lp_file, shared->dir / "srgb.vdobs", import));
+  auto obs = fitting::ObsMapReader::open(shared->dir / "srgb.vdobs");
+  ASSERT_TRUE(obs);
+  RbfFitOptions options;
+  options.held_out = shared->held_out;
+  options.encoding = DisplayEncoding::kSrgb;
+  auto basis = fit_rbf_basis(obs.value(), options);
+  ASSERT_TRUE(basis) << basis.error().describe();
+  const ErrorSum e = held_out_error(basis.value());
+  std::printf("sRGB import, --encoding srgb: held-out RMS %.3f / mean %.3f codes\n", e.rms(), e.mean_abs());
+  EXPECT_LT(e.rms(), 1.6);                     // as the codes import: measured 1.07
+  options.encoding = DisplayEncoding::kCodes;  // the mistake the option exists for: linear radiance shown as codes
+  auto dark = fit_rbf_basis(obs.value(), options);
+  ASSERT_TRUE(dark);
+  const double dark_rms = held_out_error(dark.value()).rms();
+  std::printf("sRGB import shown as codes (--encoding codes): held-out RMS %.3f codes\n", dark_rms);
+  EXPECT_GT(dark_rms, 40.0);  // measured 62.3
+}
+
+TEST_F(Rbf, ReaderRefusesOtherBases) {
+  const fs::path other = shared->dir / "hsh_folder";
+  fs::create_directories(other);
+  std::ofstream(other / "info.json") << R"({"width": 4, "height": 4, "type": "hsh", "colorspace": "rgb"})";
+  EXPECT_EQ(read_relight_rbf(other).error().code, ErrorCode::kUnsupported);
+  std::ofstream(other / "info.json") << "{ not json";
+  EXPECT_EQ(read_relight_rbf(other).error().code, ErrorCode::kCorrupt);
+  EXPECT_EQ(read_relight_rbf(shared->dir / "nothing_here").error().code, ErrorCode::kNotFound);
+}
+
 /// Runs relight-cli; its stdout and stderr for the failure message.
 test::ProcessRun relight(const std::vector<std::string>& args) {
   std::vector<std::string> argv = {relight_cli().string()};
