@@ -7,6 +7,7 @@
 #include <sstream>
 #include <vector>
 
+#include "cmd_rti_rbf.hpp"
 #include "commands.hpp"
 #include "progress.hpp"
 #include "vdrig/fitting/fit_map.hpp"
@@ -247,6 +248,7 @@ const CommandRegistrar kRti([](CLI::App& root) {
     cmd->add_option("--quality", a->quality, "relight: JPEG quality 1..100")->capture_default_str();
     cmd->callback([a] { finish(run_export(*a)); });
   }
+  add_rti_rbf_command(*rti);  // `vdrig rti rbf` (cmd_rti_rbf.cpp)
 });
 
 }  // namespace

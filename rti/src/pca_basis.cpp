@@ -1,0 +1,468 @@
+#include "vdrig/rti/pca_basis.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "jpeg_444.hpp"
+#include "vdrig/core/file_write.hpp"
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::rti {
+namespace {
+
+namespace fs = std::filesystem;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+Error invalid(const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); }
+
+// IEC 61966-2-1, the curve the default import inverted: display value of a linear radiance.
+double srgb_encode(double v) {
+  v = std::clamp(v, 0.0, 1.0);
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+double display_value(float radiance, DisplayEncoding encoding) {
+  return encoding == DisplayEncoding::kSrgb ? srgb_encode(radiance) : std::clamp(double(radiance), 0.0, 1.0);
+}
+
+/// Runs body(item) for items 0..count-1 on `threads` workers; the first failure stops the rest and is returned.
+Status parallel_for(int count, int threads, const std::function<Status(int item, int worker)>& body) {
+  std::atomic<int> next{0};
+  std::mutex mutex;
+  Status first = Status::ok();
+  auto work = [&](int worker) {
+    for (int item; (item = next++) < count;) {
+      Status s = body(item, worker);
+      if (!s) {
+        std::lock_guard lock(mutex);
+        if (first) first = s;
+        next = count;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int w = 1; w < threads; ++w) pool.emplace_back(work, w);
+  work(0);
+  for (auto& t : pool) t.join();
+  return first;
+}
+
+/// Training views' display values of texel (s, t): 3 per view (light-major, R G B).
+void texel_values(const fitting::ObsTile& tile, int s, int t, const std::vector<int>& views, DisplayEncoding encoding,
+                  double* out) {
+  Eigen::Vector3f rgb, dir;
+  for (size_t i = 0; i < views.size(); ++i) {
+    // Every flag is used: an RTI import flags nothing but clipped pixels, whose codes are still the best value
+    // the viewer can be asked to show (the fit has no per-texel sample selection, one operator serves all).
+    tile.observation(s, t, views[i], &rgb, &dir);
+    for (int k = 0; k < 3; ++k) out[3 * i + k] = display_value(rgb[k], encoding);
+  }
+}
+
+uint8_t to_byte(double v) { return static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L)); }
+
+}  // namespace
+
+Result<DisplayEncoding> parse_display_encoding(const std::string& text) {
+  if (text == "srgb" || text == "sRGB") return DisplayEncoding::kSrgb;
+  if (text == "codes" || text == "linear") return DisplayEncoding::kCodes;
+  return invalid("display encoding \"" + text +
+                 "\": expected codes (the stack's values are codes / 255) or srgb (imported with --response sRGB)");
+}
+
+double RbfBasis::table(int p, int i, int k) const {
+  const double byte = basis[(static_cast<size_t>(p) * lights.size() + static_cast<size_t>(i)) * 3 + k];
+  return p == 0 ? byte / 255.0 : (byte - 127.0) / range[static_cast<size_t>(p - 1)];
+}
+
+double openlime_epsilon(const std::vector<Vec3d>& lights, const Vec3d& light) {
+  // openlime.js AdaptiveRBF(samples, alpha = 8, k = 24), beta = 2; k is unused there: every light takes part.
+  // The width adapts to how far the lights are: eps = alpha / (Σ d e^(-beta d) / Σ e^(-beta d)).
+  constexpr double kAlpha = 8.0, kBeta = 2.0;
+  double num = 0.0, den = 0.0;
+  for (const Vec3d& l : lights) {
+    const double d = (l - light).norm();
+    num += d * std::exp(-kBeta * d);
+    den += std::exp(-kBeta * d);
+  }
+  return kAlpha / (num / den);
+}
+
+std::vector<double> rbf_weights(const std::vector<Vec3d>& lights, const Vec3d& light, RbfWeights kind, double sigma) {
+  const size_t n = lights.size();
+  std::vector<double> w(n, 0.0), dist(n);
+  for (size_t i = 0; i < n; ++i) dist[i] = (lights[i] - light).norm();
+  double total = 0.0;
+  if (kind == RbfWeights::kOpenLime) {
+    const double epsilon = openlime_epsilon(lights, light);
+    for (size_t i = 0; i < n; ++i) total += w[i] = std::exp(-epsilon * dist[i] * dist[i]);
+    for (double& x : w) x /= total;
+    return w;
+  }
+  // relight src/rti.cpp Rti::lightWeightsRbf: radius 1 / sigma^2, normalise, drop weights <= 0.001, renormalise.
+  const double radius = 1.0 / (sigma * sigma);
+  for (size_t i = 0; i < n; ++i) total += w[i] = std::exp(-radius * dist[i] * dist[i]);
+  double kept = 0.0;
+  for (double& x : w) {
+    x /= total;
+    if (x > 0.001)
+      kept += x;
+    else
+      x = 0.0;
+  }
+  for (double& x : w) x /= kept;
+  return w;
+}
+
+std::vector<float> render_rbf(const RbfBasis& b, const Vec3d& light, RbfWeights kind) {
+  const int n = static_cast<int>(b.lights.size());
+  const std::vector<double> w = rbf_weights(b.lights, light, kind, b.sigma);
+  // base[p][k] = Σ_i w_i table(p, i, k), as OpenLIME's RBF.lightWeights (uniform `base`).
+  std::vector<double> base(static_cast<size_t>(b.planes + 1) * 3, 0.0);
+  for (int p = 0; p <= b.planes; ++p)
+    for (int i = 0; i < n; ++i)
+      if (w[static_cast<size_t>(i)] != 0.0)
+        for (int k = 0; k < 3; ++k)
+          base[static_cast<size_t>(3 * p + k)] += w[static_cast<size_t>(i)] * b.table(p, i, k);
+  const size_t texels = static_cast<size_t>(b.width) * b.height;
+  std::vector<float> out(texels * 3);
+  for (size_t x = 0; x < texels; ++x) {
+    double rgb[3] = {base[0], base[1], base[2]};
+    for (int p = 0; p < b.planes; ++p) {
+      const size_t pp = static_cast<size_t>(p);
+      const double c = (b.coefficient_bytes[pp][x] / 255.0 - b.bias[pp]) * b.scale[pp];
+      for (int k = 0; k < 3; ++k) rgb[k] += base[static_cast<size_t>(3 * (p + 1) + k)] * c;
+    }
+    for (int k = 0; k < 3; ++k) {
+      double code = 255.0 * rgb[k];
+      if (kind == RbfWeights::kRelightCli) code = std::trunc(code);  // relight's (int) casts
+      out[3 * x + static_cast<size_t>(k)] = static_cast<float>(std::clamp(code, 0.0, 255.0));
+    }
+  }
+  return out;
+}
+
+Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOptions& options) {
+  const int P = options.planes;
+  if (P < 3 || P > 48 || P % 3 != 0)
+    return invalid("rbf planes " + std::to_string(P) + ": a multiple of 3 from 3 to 48 (OpenLIME reads 3 per JPEG)");
+  if (options.jpeg_quality < 1 || options.jpeg_quality > 100)
+    return invalid("JPEG quality " + std::to_string(options.jpeg_quality) + ": expected 1..100");
+  const int S = obs.spec().texels_s, T = obs.spec().texels_t, views = obs.views();
+  std::set<int> held(options.held_out.begin(), options.held_out.end());
+  for (int v : held)
+    if (v < 0 || v >= views)
+      return invalid("held-out view " + std::to_string(v) + " outside the map's 0.." + std::to_string(views - 1));
+  std::vector<int> train;
+  for (int v = 0; v < views; ++v)
+    if (!held.count(v)) train.push_back(v);
+  const int N = static_cast<int>(train.size()), D = 3 * N;
+  if (N < P + 1)
+    return invalid(std::to_string(N) + " lights cannot carry " + std::to_string(P) + " planes (need planes + 1)");
+  const int threads =
+      std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1, 64);
+  const int tiles = obs.tiles_s() * obs.tiles_t();
+  auto progress = [&](const std::string& stage, int done, int total) {
+    if (options.on_progress) options.on_progress(stage, done, total);
+  };
+
+  RbfBasis out;
+  out.width = S;
+  out.height = T;
+  out.planes = P;
+  out.jpeg_quality = options.jpeg_quality;
+  {  // the lights: every texel of an RTI map sees view v from the same direction
+    auto tile = obs.read_tile(0, 0);
+    if (!tile) return tile.error();
+    Eigen::Vector3f rgb, dir;
+    for (int v : train) {
+      tile->observation(tile->s0(), tile->t0(), v, &rgb, &dir);
+      out.lights.push_back(dir.cast<double>().normalized());
+    }
+  }
+
+  // 1. PCA of the display values over a subsample of texels: sums of y and y y^T per worker.
+  const int64_t step = std::max<int64_t>(1, int64_t(S) * T / std::max(1, options.pca_texels));
+  std::vector<MatrixXd> cov(static_cast<size_t>(threads), MatrixXd::Zero(D, D));
+  std::vector<VectorXd> sum(static_cast<size_t>(threads), VectorXd::Zero(D));
+  std::vector<int64_t> count(static_cast<size_t>(threads), 0);
+  std::atomic<int> tiles_done{0};
+  VDRIG_TRY(parallel_for(tiles, threads, [&](int item, int worker) -> Status {
+    auto tile = obs.read_tile(item % obs.tiles_s(), item / obs.tiles_s());
+    if (!tile) return tile.error();
+    std::vector<std::pair<int, int>> picked;
+    for (int t = tile->t0(); t < tile->t0() + tile->height(); ++t)
+      for (int s = tile->s0(); s < tile->s0() + tile->width(); ++s)
+        if ((s + 7 * int64_t(t)) % step == 0) picked.emplace_back(s, t);  // a sheared lattice, not whole columns
+    MatrixXd y(D, static_cast<Eigen::Index>(picked.size()));
+    for (size_t j = 0; j < picked.size(); ++j)
+      texel_values(tile.value(), picked[j].first, picked[j].second, train, options.encoding,
+                   y.col(static_cast<Eigen::Index>(j)).data());
+    const size_t w = static_cast<size_t>(worker);
+    cov[w].selfadjointView<Eigen::Lower>().rankUpdate(y);
+    sum[w] += y.rowwise().sum();
+    count[w] += static_cast<int64_t>(picked.size());
+    progress("covariance", ++tiles_done, tiles);
+    return Status::ok();
+  }));
+  for (size_t w = 1; w < cov.size(); ++w) {
+    cov[0] += cov[w];
+    sum[0] += sum[w];
+    count[0] += count[w];
+  }
+  cov.resize(1);
+  const double n = static_cast<double>(count[0]);
+  const VectorXd mean = sum[0] / n;
+  MatrixXd C = cov[0].selfadjointView<Eigen::Lower>();
+  C = (C - n * mean * mean.transpose()) / n;
+  progress("eigenvectors", 0, 1);
+  // Only the P leading eigenvectors are needed: subspace iteration on P + 8 vectors costs D^2 (P + 8) per step
+  // instead of the full decomposition's ~10 D^3 (867 x 867 at 289 lights: ~0.1 s instead of ~1.5 s). RTI stacks
+  // have a steep spectrum (9 planes keep > 99.9% of the variance), so a few dozen steps converge.
+  const int k = std::min(D, P + 8);
+  MatrixXd Q = MatrixXd::Zero(D, k);
+  for (int j = 0; j < k; ++j)  // deterministic start: spread unit vectors plus a ramp, so no column is orthogonal
+    for (int r = 0; r < D; ++r) Q(r, j) = (r % k == j ? 1.0 : 0.0) + 1e-3 * std::cos(0.37 * (r + 1) * (j + 1));
+  for (int step = 0; step < 40; ++step) {
+    const MatrixXd CQ = C * Q;
+    Q = Eigen::HouseholderQR<MatrixXd>(CQ).householderQ() * MatrixXd::Identity(D, k);
+  }
+  Eigen::SelfAdjointEigenSolver<MatrixXd> small(Q.transpose() * C * Q);  // Rayleigh-Ritz
+  if (small.info() != Eigen::Success) return make_error(ErrorCode::kInternal, "PCA eigen-decomposition failed");
+  MatrixXd E(D, P);  // leading eigenvectors first (the solver sorts ascending)
+  for (int p = 0; p < P; ++p) E.col(p) = Q * small.eigenvectors().col(k - 1 - p);
+  double kept = 0.0, total = C.trace();
+  for (int p = 0; p < P; ++p) kept += small.eigenvalues()(k - 1 - p);
+  log::get("rti")->info("rbf: PCA of {} texels x {} lights, {} planes keep {:.4f} of the variance", count[0], N, P,
+                        total > 0 ? kept / total : 1.0);
+
+  // 2. The table: W(j, i) = OpenLIME's weight of light i when rendering at light j. Deconvolve so that W times the
+  // table is the eigenvectors (and the mean) at the lights.
+  MatrixXd W(N, N);
+  double mean_epsilon = 0.0;
+  for (int j = 0; j < N; ++j) {
+    mean_epsilon += openlime_epsilon(out.lights, out.lights[static_cast<size_t>(j)]) / N;
+    const std::vector<double> w = rbf_weights(out.lights, out.lights[static_cast<size_t>(j)], RbfWeights::kOpenLime);
+    for (int i = 0; i < N; ++i) W(j, i) = w[static_cast<size_t>(i)];
+  }
+  // relight's own renderers (relight-cli -L, relight's web viewer) use exp(-d^2 / sigma^2) instead: this sigma
+  // gives them about the width OpenLIME uses, so they show nearly what OpenLIME shows.
+  out.sigma = 1.0 / std::sqrt(mean_epsilon);
+  // Column p of `table` is plane p (p = 0 the mean), rows (light i, channel k) at 3 i + k.
+  MatrixXd table(D, P + 1);
+  table.col(0) = mean;
+  table.rightCols(P) = E;
+  if (options.deconvolution >= 0) {
+    const MatrixXd normal = W.transpose() * W + options.deconvolution * MatrixXd::Identity(N, N);
+    const Eigen::LDLT<MatrixXd> solver(normal);
+    for (int p = 0; p <= P; ++p) {
+      // The column as N x 3 (light x channel): the interpolation acts on each channel alike.
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> m(table.col(p).data(), N, 3);
+      const MatrixXd solved = solver.solve(W.transpose() * MatrixXd(m));
+      m = solved;
+    }
+  }
+  // 3. Quantise as the file holds it: the mean as byte / 255, basis p as 127 + range_p x (bytes 0..254).
+  out.basis.resize(static_cast<size_t>(P + 1) * D);
+  out.range.resize(static_cast<size_t>(P));
+  for (int p = 0; p <= P; ++p) {
+    double scale = 255.0;
+    if (p > 0) {
+      const double peak = std::max(table.col(p).cwiseAbs().maxCoeff(), 1e-12);
+      out.range[static_cast<size_t>(p - 1)] = scale = 127.0 / peak;
+    }
+    for (int r = 0; r < D; ++r)
+      out.basis[static_cast<size_t>(p) * D + r] = to_byte(p == 0 ? scale * table(r, p) : 127.0 + scale * table(r, p));
+  }
+  // 4. Coefficients: least squares against what the viewer renders at the lights from the quantised table,
+  // y ≈ b + A c with A = (W ⊗ I3) table_q, b its mean column.
+  MatrixXd Tq(D, P + 1);
+  for (int p = 0; p <= P; ++p)
+    for (int i = 0; i < N; ++i)
+      for (int k = 0; k < 3; ++k) Tq(3 * i + k, p) = out.table(p, i, k);
+  MatrixXd R(D, P + 1);
+  for (int p = 0; p <= P; ++p) {
+    Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> m(Tq.col(p).data(), N, 3);
+    const MatrixXd r = W * m;
+    for (int i = 0; i < N; ++i)
+      for (int k = 0; k < 3; ++k) R(3 * i + k, p) = r(i, k);
+  }
+  const VectorXd b = R.col(0);
+  const MatrixXd A = R.rightCols(P);
+  const MatrixXd G = (A.transpose() * A).ldlt().solve(A.transpose());  // P x D
+  std::vector<std::vector<float>> coeff(static_cast<size_t>(P), std::vector<float>(static_cast<size_t>(S) * T));
+  tiles_done = 0;
+  VDRIG_TRY(parallel_for(tiles, threads, [&](int item, int /*worker*/) -> Status {
+    auto tile = obs.read_tile(item % obs.tiles_s(), item / obs.tiles_s());
+    if (!tile) return tile.error();
+    const int w = tile->width(), h = tile->height();
+    MatrixXd y(D, w * h);
+    for (int t = 0; t < h; ++t)
+      for (int s = 0; s < w; ++s)
+        texel_values(tile.value(), tile->s0() + s, tile->t0() + t, train, options.encoding, y.col(t * w + s).data());
+    y.colwise() -= b;
+    const MatrixXd c = G * y;
+    for (int t = 0; t < h; ++t)
+      for (int s = 0; s < w; ++s) {
+        const size_t at = static_cast<size_t>(T - 1 - (tile->t0() + t)) * S + static_cast<size_t>(tile->s0() + s);
+        for (int p = 0; p < P; ++p) coeff[static_cast<size_t>(p)][at] = static_cast<float>(c(p, t * w + s));
+      }
+    progress("coefficients", ++tiles_done, tiles);
+    return Status::ok();
+  }));
+  // 5. Coefficient planes: the full range of each (relight clips at the 99.5% quantile; a clipped texel is wrong
+  // under every light, one step more of quantisation costs a fraction of a code), through the JPEG encoder.
+  out.scale.resize(static_cast<size_t>(P));
+  out.bias.resize(static_cast<size_t>(P));
+  out.coefficient_bytes.assign(static_cast<size_t>(P), std::vector<uint8_t>(static_cast<size_t>(S) * T));
+  for (int j = 0; j < P / 3; ++j) {
+    cv::Mat bgr(T, S, CV_8UC3);
+    for (int ch = 0; ch < 3; ++ch) {
+      const auto& c = coeff[static_cast<size_t>(3 * j + ch)];
+      const auto [lo, hi] = std::minmax_element(c.begin(), c.end());
+      const double span = std::max(double(*hi) - *lo, 1e-12);
+      out.scale[static_cast<size_t>(3 * j + ch)] = span;
+      out.bias[static_cast<size_t>(3 * j + ch)] = -*lo / span;
+      for (int y = 0; y < T; ++y)
+        for (int x = 0; x < S; ++x)
+          bgr.at<cv::Vec3b>(y, x)[2 - ch] = to_byte((c[static_cast<size_t>(y) * S + x] - *lo) / span * 255.0);
+    }
+    auto jpeg = encode_jpeg_444(bgr, options.jpeg_quality);
+    if (!jpeg) return jpeg.error();
+    const cv::Mat decoded =
+        cv::imdecode(cv::Mat(1, static_cast<int>(jpeg->size()), CV_8UC1, jpeg->data()), cv::IMREAD_COLOR);
+    if (decoded.empty() || decoded.rows != T || decoded.cols != S)
+      return make_error(ErrorCode::kInternal, "plane JPEG " + std::to_string(j) + " does not decode");
+    for (int ch = 0; ch < 3; ++ch)
+      for (int y = 0; y < T; ++y)
+        for (int x = 0; x < S; ++x)
+          out.coefficient_bytes[static_cast<size_t>(3 * j + ch)][static_cast<size_t>(y) * S + x] =
+              decoded.at<cv::Vec3b>(y, x)[2 - ch];
+    out.plane_jpeg.push_back(std::move(jpeg.value()));
+  }
+  return out;
+}
+
+Status write_relight_rbf(const RbfBasis& b, const fs::path& out) {
+  if (b.planes % 3 != 0 || b.coefficient_bytes.size() != static_cast<size_t>(b.planes))
+    return invalid("rbf basis with " + std::to_string(b.planes) + " planes: not a multiple of 3 or planes missing");
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return make_error(ErrorCode::kIo, "creating " + out.string() + ": " + ec.message());
+  for (int j = 0; j < b.planes / 3; ++j) {
+    std::string jpeg;
+    if (static_cast<size_t>(j) < b.plane_jpeg.size()) {
+      jpeg = b.plane_jpeg[static_cast<size_t>(j)];
+    } else {  // e.g. a basis read from elsewhere and edited: encode its bytes
+      cv::Mat bgr(b.height, b.width, CV_8UC3);
+      for (int ch = 0; ch < 3; ++ch)
+        for (int y = 0; y < b.height; ++y)
+          for (int x = 0; x < b.width; ++x)
+            bgr.at<cv::Vec3b>(y, x)[2 - ch] =
+                b.coefficient_bytes[static_cast<size_t>(3 * j + ch)][static_cast<size_t>(y) * b.width + x];
+      auto encoded = encode_jpeg_444(bgr, b.jpeg_quality);
+      if (!encoded) return encoded.error();
+      jpeg = std::move(encoded.value());
+    }
+    VDRIG_TRY(write_file_atomic(out / ("plane_" + std::to_string(j) + ".jpg"), jpeg));
+  }
+  nlohmann::json lights = nlohmann::json::array(), basis = nlohmann::json::array();
+  for (const Vec3d& l : b.lights)
+    for (int k = 0; k < 3; ++k) lights.push_back(l[k]);
+  for (uint8_t v : b.basis) basis.push_back(int(v));
+  const nlohmann::json info = {
+      {"width", b.width},
+      {"height", b.height},
+      {"format", "jpg"},
+      {"type", "rbf"},
+      {"colorspace", "mrgb"},
+      {"sigma", b.sigma},
+      {"lights", lights},
+      {"nplanes", b.planes},
+      {"quality", b.jpeg_quality},
+      {"basis", basis},
+      {"materials", nlohmann::json::array({{{"range", b.range}, {"scale", b.scale}, {"bias", b.bias}}})},
+      {"producer", "vdrig"}};
+  VDRIG_TRY(write_file_atomic(out / "info.json", info.dump() + "\n"));
+  log::get("rti")->info("wrote {} (rbf, {} planes, {} lights)", out.string(), b.planes, b.lights.size());
+  return Status::ok();
+}
+
+Result<RbfBasis> read_relight_rbf(const fs::path& where) {
+  if (!fs::exists(where)) return make_error(ErrorCode::kNotFound, where.string() + " does not exist");
+  const fs::path folder = fs::is_directory(where) ? where : where.parent_path();
+  const fs::path info_path = folder / "info.json";
+  std::ifstream in(info_path);
+  if (!in) return make_error(ErrorCode::kNotFound, info_path.string() + " does not exist");
+  auto corrupt = [&](const std::string& m) { return make_error(ErrorCode::kCorrupt, info_path.string() + ": " + m); };
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    return corrupt(e.what());
+  }
+  RbfBasis b;
+  try {
+    if (j.value("type", "") != "rbf" || j.value("colorspace", "") != "mrgb")
+      return make_error(ErrorCode::kUnsupported, info_path.string() + ": type \"" + j.value("type", "") +
+                                                     "\", colorspace \"" + j.value("colorspace", "") +
+                                                     "\" (only rbf over mrgb is read here)");
+    b.width = j.at("width").get<int>();
+    b.height = j.at("height").get<int>();
+    b.planes = j.at("nplanes").get<int>();
+    b.sigma = j.value("sigma", 0.125);
+    b.jpeg_quality = j.value("quality", 95);
+    const auto lights = j.at("lights").get<std::vector<double>>();
+    if (lights.size() % 3 != 0 || lights.empty()) return corrupt("\"lights\" is not a list of x, y, z");
+    for (size_t i = 0; i < lights.size(); i += 3) b.lights.emplace_back(lights[i], lights[i + 1], lights[i + 2]);
+    for (double v : j.at("basis").get<std::vector<double>>())
+      b.basis.push_back(static_cast<uint8_t>(std::clamp(v, 0.0, 255.0)));
+    const auto& m = j.at("materials").at(0);
+    b.range = m.at("range").get<std::vector<double>>();
+    b.scale = m.at("scale").get<std::vector<double>>();
+    b.bias = m.at("bias").get<std::vector<double>>();
+  } catch (const std::exception& e) {
+    return corrupt(e.what());
+  }
+  const size_t P = static_cast<size_t>(b.planes);
+  if (b.planes <= 0 || b.width <= 0 || b.height <= 0) return corrupt("non-positive size or plane count");
+  if (b.basis.size() != (P + 1) * b.lights.size() * 3)
+    return corrupt("\"basis\" holds " + std::to_string(b.basis.size()) +
+                   " numbers, (nplanes + 1) x lights x 3 = " + std::to_string((P + 1) * b.lights.size() * 3));
+  if (b.range.size() < P || b.scale.size() < P || b.bias.size() < P)
+    return corrupt("materials[0] has fewer range/scale/bias values than nplanes");
+  b.coefficient_bytes.assign(P, std::vector<uint8_t>(static_cast<size_t>(b.width) * b.height));
+  for (size_t jpeg = 0; 3 * jpeg < P; ++jpeg) {
+    const fs::path file = folder / ("plane_" + std::to_string(jpeg) + ".jpg");
+    std::ifstream f(file, std::ios::binary);
+    if (!f) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
+    std::ostringstream bytes;
+    bytes << f.rdbuf();
+    b.plane_jpeg.push_back(bytes.str());
+    const std::string& s = b.plane_jpeg.back();
+    const cv::Mat bgr =
+        cv::imdecode(cv::Mat(1, static_cast<int>(s.size()), CV_8UC1, const_cast<char*>(s.data())), cv::IMREAD_COLOR);
+    if (bgr.empty() || bgr.rows != b.height || bgr.cols != b.width)
+      return corrupt(file.filename().string() + " does not decode to " + std::to_string(b.width) + "x" +
+                     std::to_string(b.height));
+    for (size_t ch = 0; ch < 3 && 3 * jpeg + ch < P; ++ch)
+      for (int y = 0; y < b.height; ++y)
+        for (int x = 0; x < b.width; ++x)
+          b.coefficient_bytes[3 * jpeg + ch][static_cast<size_t>(y) * b.width + x] =
+              bgr.at<cv::Vec3b>(y, x)[2 - static_cast<int>(ch)];
+  }
+  return b;
+}
+
+}  // namespace vdrig::rti
