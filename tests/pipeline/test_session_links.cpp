@@ -20,7 +20,7 @@ TEST(SessionLinks, ALinkedHdrFolderIsRefusedAndNothingIsWrittenThrough) {
   fs::remove_all(hdr);
   fs::create_directory_symlink(elsewhere, hdr);
 
-  const Status merged = merge_session_hdr(session.value(), {.force = true});
+  const auto merged = merge_session_hdr(session.value(), {.force = true});
   ASSERT_FALSE(merged) << "merged through the planted hdr link";
   EXPECT_NE(merged.error().message.find(hdr.string()), std::string::npos) << merged.error().message;
   EXPECT_TRUE(fs::is_empty(elsewhere)) << "EXRs were written into the link's target";
