@@ -38,12 +38,9 @@ Status run_compare(const CompareArgs& a) {
   for (const auto& m : a.maps) maps.push_back(resolve_map(session.value(), m));
   std::vector<int> views = a.views;
   if (a.holdout) {
-    auto map = fitting::ParameterMap::read(maps.front());
-    if (!map) return make_error(map.error().code, maps.front().string() + ": " + map.error().message);
-    auto held = pipeline::held_out_views(map.value());
-    if (!held)
-      return make_error(ErrorCode::kInvalidArgument,
-                        maps.front().string() + ": " + held.error().message + "; name the views with --views");
+    // Every map must have held those views out: one fitted on them would be compared where it was fitted.
+    auto held = pipeline::common_held_out_views(maps);
+    if (!held) return held.error();
     views = held.value();
   }
   pipeline::CompareOptions options;
@@ -70,7 +67,8 @@ const CommandRegistrar kCompare([](CLI::App& root) {
       ->delimiter(',');
   auto* views = cmd->add_option("--views", args->views, "session views to compare at, e.g. 12,40")->delimiter(',');
   auto* holdout =
-      cmd->add_flag("--holdout", args->holdout, "the views the first map's fit held out (vdrig fit --holdout)");
+      cmd->add_flag("--holdout", args->holdout,
+                    "the views the maps' fits held out (vdrig fit --holdout; every map must have held out the same)");
   views->excludes(holdout);
   cmd->add_option("--out", args->out, "output folder (default SESSION/renders/compare)");
   cmd->add_option("--gamma", args->gamma, "tone mapping y = 1 - exp(-gamma x) of render and photo")

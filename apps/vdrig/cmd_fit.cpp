@@ -79,7 +79,13 @@ Status run_fit(const FitArgs& a) {
   auto session = capture::Session::open(a.session);
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
-  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views);
+  // Views whose observations the fit does not get: held-out views are chosen among the others.
+  std::vector<bool> unusable(static_cast<size_t>(n_views), false);
+  for (int v = 0; v < n_views; ++v) unusable[v] = !session->view_complete(v);
+  if (auto geometry = pipeline::session_geometry(session.value()); geometry)
+    for (size_t v = 0; v < geometry->excluded.size() && v < unusable.size(); ++v)
+      unusable[v] = unusable[v] || geometry->excluded[v];
+  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views, unusable);
   if (!fit_options) return fit_options.error();
   fitting::MapFitOptions& options = fit_options.value();
   const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
