@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "mpi_job.hpp"
 #include "progress.hpp"
+#include "vdrig/capture/session_layout.hpp"
 #include "vdrig/cluster/distributed_fit.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
@@ -73,7 +74,7 @@ pipeline::FitRequest fit_request(const FitArgs& a) {
   return r;
 }
 
-Status run_fit(const FitArgs& a) {
+Status run_fit_steps(const FitArgs& a) {
   auto res = parse_resolution(a.resolution);
   if (!res) return res.error();
   auto session = capture::Session::open(a.session);
@@ -179,6 +180,23 @@ Status run_fit(const FitArgs& a) {
   if (summary.median_holdout_rms) std::printf(", median held-out RMS %.4g", *summary.median_holdout_rms);
   std::printf("\n");
   return Status::ok();
+}
+
+/// The fit, leaving no empty folder behind when it fails: maps/ and obsmap/ (and --out's folder) are made before the
+/// work, so that a fit that cannot write its output fails early, and removed again when they were made for nothing.
+Status run_fit(const FitArgs& a) {
+  const capture::SessionLayout layout(a.session);
+  std::vector<fs::path> folders = {layout.maps_dir(), layout.obsmap_dir()};
+  if (!a.out.empty() && fs::path(a.out).has_parent_path()) folders.push_back(fs::path(a.out).parent_path());
+  std::vector<fs::path> made;  // folders this fit may create: those absent before it
+  std::error_code ec;
+  for (const fs::path& folder : folders)
+    if (!fs::exists(folder, ec)) made.push_back(folder);
+  const Status status = run_fit_steps(a);
+  if (!status)
+    for (const fs::path& folder : made)
+      if (fs::is_directory(folder, ec) && fs::is_empty(folder, ec)) fs::remove(folder, ec);
+  return status;
 }
 
 const CommandRegistrar kFit([](CLI::App& root) {
