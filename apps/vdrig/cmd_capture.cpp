@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 struct CaptureArgs {
   std::string rig = "sim";  // "sim" or a rig config JSON file
   std::string scene = "patchwork";
-  std::string scheme = "latlong:6";
+  std::string scheme = capture::kDefaultScheme;
   std::string bracket = "auto";
   std::string out;
   std::string resume;

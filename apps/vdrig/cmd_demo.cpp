@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "progress.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
@@ -22,9 +23,9 @@ namespace fs = std::filesystem;
 struct DemoArgs {
   std::string out = "out/demo";
   std::string scene = "patchwork";
-  std::string scheme = "latlong:8";
-  int resolution = 128;
-  int holdout = 3;
+  std::string scheme = capture::kDefaultScheme;
+  std::string resolution = "128x128";  // SxT texels, as `vdrig fit --res`
+  int holdout = 3;                     // views held out of the fit, as `vdrig fit --holdout`
 };
 
 constexpr const char* kDemoMark = "vdrig demo";  // manifest extra "created_by" of a session the demo made
@@ -92,6 +93,16 @@ Status run_demo(const DemoArgs& a) {
     steps.push_back({name, elapsed_s() - step_start_s});
     step_start_s = elapsed_s();
   };
+  // --res as `vdrig fit` takes it (SxT); a bare N, the demo's old form, still means NxN.
+  std::string resolution = a.resolution;
+  if (!resolution.empty() && resolution.find_first_not_of("0123456789") == std::string::npos) {
+    log::get("app")->warn("--res {}: a bare number is deprecated, write {}x{} (SxT, as vdrig fit --res)", resolution,
+                          resolution, resolution);
+    resolution += "x" + resolution;
+  }
+  auto parsed_res = parse_resolution(resolution);
+  if (!parsed_res) return parsed_res.error();
+  const std::pair<int, int> res = parsed_res.value();
   VDRIG_TRY(clear_earlier_demo(session_dir));
 
   std::printf("1/5 capture: scene %s, scheme %s -> %s\n", a.scene.c_str(), a.scheme.c_str(), session_dir.c_str());
@@ -127,10 +138,13 @@ Status run_demo(const DemoArgs& a) {
   // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
   // ones out and measures itself on them (holdout.R/G/B).
   const std::vector<int> held_out = pipeline::spread_holdout_views(n_views, a.holdout);
+  if (a.holdout >= n_views)
+    return make_error(ErrorCode::kInvalidArgument, "--holdout " + std::to_string(a.holdout) +
+                                                       ": the session has only " + std::to_string(n_views) + " views");
 
-  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", a.resolution, a.resolution, n_views,
+  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", res.first, res.second, n_views,
               held_out.size());
-  auto obs_path = pipeline::session_obsmap_file(session.value(), a.resolution, a.resolution);
+  auto obs_path = pipeline::session_obsmap_file(session.value(), res.first, res.second);
   if (!obs_path) return obs_path.error();
   auto obs = fitting::ObsMapReader::open(obs_path.value());
   if (!obs) return obs.error();
@@ -149,8 +163,8 @@ Status run_demo(const DemoArgs& a) {
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
   map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
-                                                    a.scheme + " --res " + std::to_string(a.resolution) +
-                                                    " --holdout " + std::to_string(a.holdout);
+                                                    a.scheme + " --res " + a.resolution + " --holdout " +
+                                                    std::to_string(a.holdout);
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.
   const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
   fs::create_directories(map_path.parent_path(), ec);
@@ -158,12 +172,12 @@ Status run_demo(const DemoArgs& a) {
   end_step("fit");
 
   std::printf("5/5 render the held-out views and compare them with the photographs (as vdrig compare)\n");
-  // The comparison is `vdrig compare SESSION --maps phong:1 --holdout`'s own (pipeline::compare_maps: both images
-  // tone mapped from HDR, |render - photo| over the surface pixels with exact radiance), written where that command
-  // writes it, so the demo and compare print one figure for one view.
+  // The comparison is `vdrig compare SESSION --maps phong:1 --views held-out`'s own (pipeline::compare_maps: both
+  // images tone mapped from HDR, |render - photo| over the surface pixels with exact radiance), written where that
+  // command writes it, so the demo and compare print one figure for one view.
   pipeline::CompareOptions compare_options;
-  compare_options.command =
-      "vdrig demo (vdrig compare " + session_dir.string() + " --maps " + fit_options.model->name() + " --holdout)";
+  compare_options.command = "vdrig demo (vdrig compare " + session_dir.string() + " --maps " +
+                            fit_options.model->name() + " --views held-out)";
   auto compared = pipeline::compare_maps(session.value(), {map_path}, held_out, compare_options);
   if (!compared) return compared.error();
   for (const pipeline::ViewComparison& row : compared->rows) {
@@ -189,12 +203,12 @@ const CommandRegistrar kDemo([](CLI::App& root) {
   cmd->add_option("--scene", args->scene, "simulated scene: a built-in name or a scene FILE.json")
       ->capture_default_str();
   cmd->add_option("--scheme", args->scheme, "sampling scheme (see docs/sampling.md)")->capture_default_str();
-  cmd->add_option("--res", args->resolution, "parameter map resolution (texels per side)")
+  cmd->add_option("--res", args->resolution, "parameter map resolution, SxT texels (as vdrig fit --res)")
+      ->capture_default_str();
+  cmd->add_option("--holdout", args->holdout,
+                  "views held out of the fit (as vdrig fit --holdout), rendered and compared; at least 1")
       ->capture_default_str()
-      ->check(CLI::Range(4, 4096));
-  cmd->add_option("--holdout", args->holdout, "views held out of the fit and rendered for comparison")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 20));
+      ->check(CLI::PositiveNumber);
   cmd->callback([args] { finish(run_demo(*args)); });
 });
 

@@ -23,7 +23,7 @@ using nlohmann::json;
 struct SessionArgs {
   std::string runtime_dir = capture::default_runtime_dir().string();
   std::string name;
-  std::string scheme = "latlong:6";
+  std::string scheme = capture::kDefaultScheme;
   std::string bracket = "auto";
   std::string scene;
   bool follow = false;

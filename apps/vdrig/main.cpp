@@ -59,10 +59,13 @@ std::vector<std::string> flag_suggestions(const CLI::App& app, const std::vector
   // The subcommand the arguments reached (the deepest parsed one): its options and its parents' are the valid ones.
   const CLI::App* reached = &app;
   for (auto subs = reached->get_subcommands(); !subs.empty(); subs = reached->get_subcommands()) reached = subs.front();
-  std::vector<std::string> known;
+  std::vector<std::string> known, visible;  // every valid flag; those --help lists (never suggest a hidden alias)
   for (const CLI::App* a = reached; a != nullptr; a = a->get_parent())
     for (const CLI::Option* option : a->get_options())
-      for (const std::string& name : option->get_lnames()) known.push_back("--" + name);
+      for (const std::string& name : option->get_lnames()) {
+        known.push_back("--" + name);
+        if (!option->get_group().empty()) visible.push_back("--" + name);
+      }
   std::vector<std::string> out;
   for (const std::string& arg : args) {
     if (arg.rfind("--", 0) != 0 || arg.size() < 3) continue;
@@ -71,7 +74,7 @@ std::vector<std::string> flag_suggestions(const CLI::App& app, const std::vector
     // Near enough to be a typo: at most 2 edits, and fewer than a third of the name (--res is not --out).
     const std::string* best = nullptr;
     size_t best_distance = 0;
-    for (const std::string& name : known) {
+    for (const std::string& name : visible) {
       const size_t d = edit_distance(flag, name);
       if (!best || d < best_distance) best = &name, best_distance = d;
     }

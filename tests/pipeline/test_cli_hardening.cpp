@@ -227,9 +227,9 @@ TEST_F(CliHardening, AMistypedFlagGetsTheNearestFlag) {
   ProcessRun r = vdrig("fit " + s + " --modle phong:1");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("--modle: did you mean --model?"), std::string::npos) << r.err;
-  r = vdrig("compare " + s + " --maps phong:1 --hlodout");
+  r = vdrig("compare " + s + " --maps phong:1 --veiws 1");
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--hlodout: did you mean --holdout?"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--veiws: did you mean --views?"), std::string::npos) << r.err;
   r = vdrig("fit " + s + " --res=8x8 --smoothnig=1e-4");  // --name=value too
   EXPECT_NE(r.err.find("--smoothnig: did you mean --smoothing?"), std::string::npos) << r.err;
   r = vdrig("fit " + s + " --zqxwv 1");
