@@ -158,10 +158,12 @@ Status run_demo(const DemoArgs& a) {
     fit_progress.update(p.texels_done, p.texels_total, "    texels %d/%d, ETA %.0f s", p.texels_done, p.texels_total,
                         p.eta_s);
   };
+  const double fit_start_s = elapsed_s();
   auto map = fitting::fit_parameter_map(obs.value(), fit_options);
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
+  map->image().number_attributes[fitting::kFitSecondsAttribute] = elapsed_s() - fit_start_s;
   map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
                                                     a.scheme + " --res " + a.resolution + " --holdout " +
                                                     std::to_string(a.holdout);

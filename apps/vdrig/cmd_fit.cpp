@@ -1,6 +1,7 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -58,6 +59,10 @@ std::string fit_command(const FitArgs& a) {
   if (a.smoothing) cmd += " --smoothing " + fmt::format("{:g}", *a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
   return cmd;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 pipeline::FitRequest fit_request(const FitArgs& a) {
@@ -143,6 +148,7 @@ Status run_fit_steps(const FitArgs& a) {
     if (const char* r = std::getenv("VDRIG_TEST_MPI_EXIT_RANK"); r && std::atoi(r) == comm->rank())
       if (const char* n = std::getenv("VDRIG_TEST_MPI_EXIT_AFTER_TILES"))
         distributed.test_exit_after_tiles = std::atoi(n);
+    const auto fit_start = std::chrono::steady_clock::now();
     auto fitted = cluster::fit_distributed(*comm, obs.value(), options, distributed);
     tile_progress.finish();
     if (!fitted) return fitted.error();
@@ -150,6 +156,7 @@ Status run_fit_steps(const FitArgs& a) {
     fitting::ParameterMap& map = fitted->value();
     map.set_source_session(fs::absolute(a.session).string());
     map.image().string_attributes["vdrig.command"] = fit_command(a);
+    map.image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
     VDRIG_TRY(map.write(out));
     // The map is durable (written atomically): its tile records are no longer needed.
     auto store =
@@ -167,11 +174,13 @@ Status run_fit_steps(const FitArgs& a) {
                         p.texels_done, p.texels_total, 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s,
                         p.eta_s);
   };
+  const auto fit_start = std::chrono::steady_clock::now();
   auto map = fitting::fit_parameter_map(obs.value(), options);
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
   map->image().string_attributes["vdrig.command"] = fit_command(a);
+  map->image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
   VDRIG_TRY(map->write(out));
 
   const pipeline::FitSummary summary = pipeline::summarize_fit(map.value());
