@@ -8,6 +8,7 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/process_lock.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 

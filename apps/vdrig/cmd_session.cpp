@@ -14,6 +14,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/capture/session_check.hpp"
 
 namespace vdrig::app {

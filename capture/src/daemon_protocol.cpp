@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "session_runner.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/json_text.hpp"
 #include "vdrig/core/settings.hpp"
