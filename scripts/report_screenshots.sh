@@ -18,7 +18,7 @@ with_display() {
 
 session=out/demo/session
 [ -f "$session/maps/phong:1.exr" ] || with_display "$vdrig" demo --out out/demo
-with_display "$vdrig" compare "$session" --maps phong:1 --holdout
+with_display "$vdrig" compare "$session" --maps phong:1 --views held-out
 "$vdrig" report "$session" --out out/demo/report.html --texel 20,100
 ls -l out/demo/report.html
 

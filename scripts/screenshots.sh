@@ -27,7 +27,7 @@ common=(--session "$session" --constrained --view "$view" --frames 3 --hidden --
 
 run "$vdrig" view "$phong" "$sh" "${common[@]}" --screenshot "$out/viewer_model.png"
 run "$vdrig" view "$phong" "$sh" "${common[@]}" --display difference --screenshot "$out/viewer_difference.png"
-run "$vdrig" view "$phong" "$sh" "${common[@]}" --model 1 --display difference \
+run "$vdrig" view "$phong" "$sh" "${common[@]}" --map 1 --display difference \
   --screenshot "$out/viewer_difference_sh36.png"
 run "$vdrig" view "$phong" "$sh" "${common[@]}" --inspect "$texel" --screenshot "$out/viewer_inspector.png"
 "$vdrig" inspect "$phong" --session "$session" --texel "$texel" --out "$out/inspect_phong.png"

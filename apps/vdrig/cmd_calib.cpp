@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "progress.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/calib/intrinsics.hpp"
 #include "vdrig/calib/kinematic.hpp"
@@ -208,8 +209,19 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
 Status run_session_hdr(const std::string& session_dir, const pipeline::HdrMergeOptions& options) {
   auto session = capture::Session::open(session_dir);
   if (!session) return session.error();
-  VDRIG_TRY(pipeline::merge_session_hdr(session.value(), options));
-  std::printf("merged %d views -> %s\n", session->completed_view_count(), session->layout().hdr_dir().c_str());
+  std::printf("HDR merge of %s -> %s\n", session->dir().c_str(), session->layout().hdr_dir().c_str());
+  pipeline::HdrMergeOptions with_progress = options;
+  ProgressLine progress;
+  with_progress.on_view = [&progress](int done, int total) {
+    progress.update(done, total, "  views %d/%d", done, total);
+  };
+  auto summary = pipeline::merge_session_hdr(session.value(), with_progress);
+  progress.finish();
+  if (!summary) return summary.error();
+  // What this run did: a second run over a merged session merges nothing and says so.
+  std::printf("merged %d views, %d already current", summary->merged, summary->current);
+  if (summary->incomplete > 0) std::printf(", %d incomplete skipped", summary->incomplete);
+  std::printf(" -> %s\n", session->layout().hdr_dir().c_str());
   return Status::ok();
 }
 

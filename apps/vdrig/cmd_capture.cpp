@@ -8,6 +8,7 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/process_lock.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 struct CaptureArgs {
   std::string rig = "sim";  // "sim" or a rig config JSON file
   std::string scene = "patchwork";
-  std::string scheme = "latlong:6";
+  std::string scheme = capture::kDefaultScheme;
   std::string bracket = "auto";
   std::string out;
   std::string resume;

@@ -1,4 +1,4 @@
-// `vdrig compare S --maps a.exr,b.exr --views I,J | --holdout [--json] [--out DIR] [--gamma G]`: fitted maps rendered
+// `vdrig compare S --maps a.exr,b.exr --views I,J|held-out [--json] [--out DIR] [--gamma G]`: fitted maps rendered
 // at captured views beside the HDR photographs, with mean and standard deviation of |render - photo| over the
 // diffuse and highlight pixels (pipeline/compare_stage.hpp).
 #include <cstdio>
@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
 
 namespace vdrig::app {
@@ -15,8 +16,9 @@ namespace fs = std::filesystem;
 struct CompareArgs {
   std::string session;
   std::vector<std::string> maps;
-  std::vector<int> views;
-  bool holdout = false, json = false;
+  std::vector<std::string> views;  // view numbers, or "held-out"
+  bool holdout = false;            // deprecated spelling of --views held-out
+  bool json = false;
   std::string out;
   double gamma = 1.0;
   double highlight_fraction = 0.1;
@@ -36,14 +38,33 @@ Status run_compare(const CompareArgs& a) {
   if (!session) return session.error();
   std::vector<fs::path> maps;
   for (const auto& m : a.maps) maps.push_back(resolve_map(session.value(), m));
-  std::vector<int> views = a.views;
-  if (a.holdout) {
-    auto map = fitting::ParameterMap::read(maps.front());
-    if (!map) return make_error(map.error().code, maps.front().string() + ": " + map.error().message);
-    auto held = pipeline::held_out_views(map.value());
-    if (!held)
+  // --views: numbers, or "held-out" (the views the maps' fits held out; --holdout is its deprecated spelling, kept
+  // for scripts: --holdout is a count of views everywhere else).
+  bool held_out = a.holdout;
+  std::vector<int> views;
+  for (const std::string& v : a.views) {
+    if (v == "held-out") {
+      held_out = true;
+      continue;
+    }
+    size_t used = 0;
+    int number = -1;
+    try {
+      number = std::stoi(v, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != v.size() || number < 0)
       return make_error(ErrorCode::kInvalidArgument,
-                        maps.front().string() + ": " + held.error().message + "; name the views with --views");
+                        "--views takes view numbers (from 0, as the console prints them) or held-out; got " + v);
+    views.push_back(number);
+  }
+  if (held_out && !views.empty())
+    return make_error(ErrorCode::kInvalidArgument, "--views: view numbers or held-out, not both");
+  if (held_out) {
+    // Every map must have held those views out: one fitted on them would be compared where it was fitted.
+    auto held = pipeline::common_held_out_views(maps);
+    if (!held) return held.error();
     views = held.value();
   }
   pipeline::CompareOptions options;
@@ -68,10 +89,14 @@ const CommandRegistrar kCompare([](CLI::App& root) {
   cmd->add_option("--maps", args->maps, "parameter maps (EXR files, or model specs naming SESSION/maps/SPEC.exr)")
       ->required()
       ->delimiter(',');
-  auto* views = cmd->add_option("--views", args->views, "session views to compare at, e.g. 12,40")->delimiter(',');
-  auto* holdout =
-      cmd->add_flag("--holdout", args->holdout, "the views the first map's fit held out (vdrig fit --holdout)");
-  views->excludes(holdout);
+  auto* views =
+      cmd->add_option("--views", args->views,
+                      "views to compare at: view numbers (from 0), e.g. 12,40, or held-out: the views the maps' fits "
+                      "held out (vdrig fit --holdout N; every map must have held out the same)")
+          ->delimiter(',');
+  // Deprecated: --holdout is a count of held-out views in fit and demo; here it meant --views held-out.
+  auto* holdout = cmd->add_flag("--holdout", args->holdout, "deprecated: --views held-out")->group("");
+  holdout->excludes(views);
   cmd->add_option("--out", args->out, "output folder (default SESSION/renders/compare)");
   cmd->add_option("--gamma", args->gamma, "tone mapping y = 1 - exp(-gamma x) of render and photo")
       ->capture_default_str();
@@ -81,12 +106,13 @@ const CommandRegistrar kCompare([](CLI::App& root) {
   cmd->add_flag("--json", args->json, "print the table as JSON");
   cmd->callback([args, views, holdout] {
     if (views->count() == 0 && holdout->count() == 0)
-      finish(make_error(ErrorCode::kInvalidArgument, "name the views: --views I,J,... or --holdout"));
+      finish(make_error(ErrorCode::kInvalidArgument, "name the views: --views I,J,... or --views held-out"));
+    if (holdout->count() > 0)
+      log::get("app")->warn("compare --holdout is deprecated: write --views held-out (--holdout is a count elsewhere)");
     args->command = "vdrig compare " + args->session + " --maps ";
     for (size_t i = 0; i < args->maps.size(); ++i) args->command += (i ? "," : "") + args->maps[i];
-    if (args->holdout) args->command += " --holdout";
-    for (size_t i = 0; i < args->views.size(); ++i)
-      args->command += (i ? "," : " --views ") + std::to_string(args->views[i]);
+    for (size_t i = 0; i < args->views.size(); ++i) args->command += (i ? "," : " --views ") + args->views[i];
+    if (args->holdout) args->command += " --views held-out";
     finish(run_compare(*args));
   });
 });

@@ -1,4 +1,7 @@
 // vdrig demo: the whole pipeline on the simulated rig, start to finish, writing images a person can look at.
+#include <fmt/format.h>
+
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -6,13 +9,12 @@
 
 #include "commands.hpp"
 #include "progress.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
-#include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
-#include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -21,9 +23,9 @@ namespace fs = std::filesystem;
 struct DemoArgs {
   std::string out = "out/demo";
   std::string scene = "patchwork";
-  std::string scheme = "latlong:8";
-  int resolution = 128;
-  int holdout = 3;
+  std::string scheme = capture::kDefaultScheme;
+  std::string resolution = "128x128";  // SxT texels, as `vdrig fit --res`
+  int holdout = 3;                     // views held out of the fit, as `vdrig fit --holdout`
 };
 
 constexpr const char* kDemoMark = "vdrig demo";  // manifest extra "created_by" of a session the demo made
@@ -81,6 +83,26 @@ Status run_demo(const DemoArgs& a) {
   const fs::path out = fs::absolute(a.out);
   const fs::path session_dir = out / "session";
   std::error_code ec;
+  const auto start = std::chrono::steady_clock::now();
+  const auto elapsed_s = [&start] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  std::vector<std::pair<std::string, double>> steps;  // each step's wall time, seconds, printed at the end
+  double step_start_s = 0.0;
+  const auto end_step = [&](const std::string& name) {
+    steps.push_back({name, elapsed_s() - step_start_s});
+    step_start_s = elapsed_s();
+  };
+  // --res as `vdrig fit` takes it (SxT); a bare N, the demo's old form, still means NxN.
+  std::string resolution = a.resolution;
+  if (!resolution.empty() && resolution.find_first_not_of("0123456789") == std::string::npos) {
+    log::get("app")->warn("--res {}: a bare number is deprecated, write {}x{} (SxT, as vdrig fit --res)", resolution,
+                          resolution, resolution);
+    resolution += "x" + resolution;
+  }
+  auto parsed_res = parse_resolution(resolution);
+  if (!parsed_res) return parsed_res.error();
+  const std::pair<int, int> res = parsed_res.value();
   VDRIG_TRY(clear_earlier_demo(session_dir));
 
   std::printf("1/5 capture: scene %s, scheme %s -> %s\n", a.scene.c_str(), a.scheme.c_str(), session_dir.c_str());
@@ -98,22 +120,35 @@ Status run_demo(const DemoArgs& a) {
   capture_progress.finish();
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
+  end_step("capture");
 
   const capture::SessionLayout layout = session->layout();
   std::printf("2/5 HDR merge of %d brackets -> %s\n", n_views, layout.hdr_dir().c_str());
-  VDRIG_TRY(pipeline::merge_session_hdr(session.value()));
+  pipeline::HdrMergeOptions hdr_options;
+  ProgressLine hdr_progress;
+  hdr_options.on_view = [&hdr_progress](int done, int total) {
+    hdr_progress.update(done, total, "    views %d/%d", done, total);
+  };
+  auto merged = pipeline::merge_session_hdr(session.value(), hdr_options);
+  hdr_progress.finish();
+  if (!merged) return merged.error();
+  end_step("HDR");
 
   // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
   // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
   // ones out and measures itself on them (holdout.R/G/B).
   const std::vector<int> held_out = pipeline::spread_holdout_views(n_views, a.holdout);
+  if (a.holdout >= n_views)
+    return make_error(ErrorCode::kInvalidArgument, "--holdout " + std::to_string(a.holdout) +
+                                                       ": the session has only " + std::to_string(n_views) + " views");
 
-  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", a.resolution, a.resolution, n_views,
+  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", res.first, res.second, n_views,
               held_out.size());
-  auto obs_path = pipeline::session_obsmap_file(session.value(), a.resolution, a.resolution);
+  auto obs_path = pipeline::session_obsmap_file(session.value(), res.first, res.second);
   if (!obs_path) return obs_path.error();
   auto obs = fitting::ObsMapReader::open(obs_path.value());
   if (!obs) return obs.error();
+  end_step("observation map");
 
   std::printf("4/5 fit phong:1 per texel\n");
   fitting::MapFitOptions fit_options;
@@ -123,44 +158,42 @@ Status run_demo(const DemoArgs& a) {
     fit_progress.update(p.texels_done, p.texels_total, "    texels %d/%d, ETA %.0f s", p.texels_done, p.texels_total,
                         p.eta_s);
   };
+  const double fit_start_s = elapsed_s();
   auto map = fitting::fit_parameter_map(obs.value(), fit_options);
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(session_dir.string());
+  map->image().number_attributes[fitting::kFitSecondsAttribute] = elapsed_s() - fit_start_s;
   map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
-                                                    a.scheme + " --res " + std::to_string(a.resolution) +
-                                                    " --holdout " + std::to_string(a.holdout);
+                                                    a.scheme + " --res " + a.resolution + " --holdout " +
+                                                    std::to_string(a.holdout);
   // Named by the model's spec, as `vdrig fit --model phong:1` names it.
   const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
   fs::create_directories(map_path.parent_path(), ec);
   VDRIG_TRY(map->write(map_path));
+  end_step("fit");
 
-  std::printf("5/5 render held-out views and compare with the photographs\n");
-  auto geometry = pipeline::session_geometry(session.value());
-  if (!geometry) return geometry.error();
-  auto scene = sim::make_scene(a.scene);
-  if (!scene) return scene.error();
-  const fs::path renders = layout.renders_dir();
-  for (int v : held_out) {
-    // The diffuse patch (first Lambertian patch of the scene), 20 mm inside its edges.
-    cv::Mat region;
-    for (const auto& p : scene->patches)
-      if (scene->materials[p.material].ks.isZero()) {
-        region = pipeline::surface_region_mask(geometry->camera, geometry->poses[v], p.x0_mm + 20, p.y0_mm + 20,
-                                               p.x1_mm - 20, p.y1_mm - 20);
-        break;
-      }
-    auto all = pipeline::render_and_compare(session.value(), map.value(), v, renders);
-    if (!all) return all.error();
-    auto diffuse = pipeline::render_and_compare(session.value(), map.value(), v, renders, region);
-    if (!diffuse) return diffuse.error();
-    std::printf("    view %d: mean |render - photo| = %.2f (all pixels), %.2f (diffuse patch), 8-bit codes\n", v,
-                all->mean_abs_error, diffuse->mean_abs_error);
-    std::printf("      %s\n      %s\n      %s\n", all->render_png.c_str(), all->photo_png.c_str(),
-                all->diff_png.c_str());
+  std::printf("5/5 render the held-out views and compare them with the photographs (as vdrig compare)\n");
+  // The comparison is `vdrig compare SESSION --maps phong:1 --views held-out`'s own (pipeline::compare_maps: both
+  // images tone mapped from HDR, |render - photo| over the surface pixels with exact radiance), written where that
+  // command writes it, so the demo and compare print one figure for one view.
+  pipeline::CompareOptions compare_options;
+  compare_options.command = "vdrig demo (vdrig compare " + session_dir.string() + " --maps " +
+                            fit_options.model->name() + " --views held-out)";
+  auto compared = pipeline::compare_maps(session.value(), {map_path}, held_out, compare_options);
+  if (!compared) return compared.error();
+  for (const pipeline::ViewComparison& row : compared->rows) {
+    std::printf("    view %d: mean |render - photo| = %.2f (all), %.2f (diffuse), %.2f (highlight), 8-bit codes\n",
+                row.view, row.all.mean, row.diffuse.mean, row.highlight.mean);
+    std::printf("      %s\n      %s\n      %s\n", row.render_png.c_str(), row.photo_png.c_str(), row.diff_png.c_str());
   }
+  end_step("compare");
   std::printf("\nparameter map: %s\nsession:       %s\nimages:        %s\n", map_path.c_str(), session_dir.c_str(),
-              renders.c_str());
+              compared->json_file.parent_path().c_str());
+  std::string breakdown;
+  for (const auto& [name, seconds] : steps)
+    breakdown += (breakdown.empty() ? "" : ", ") + name + " " + fmt::format("{:.1f}", seconds) + " s";
+  std::printf("demo: %.1f s in all (%s)\n", elapsed_s(), breakdown.c_str());
   return Status::ok();
 }
 
@@ -172,12 +205,12 @@ const CommandRegistrar kDemo([](CLI::App& root) {
   cmd->add_option("--scene", args->scene, "simulated scene: a built-in name or a scene FILE.json")
       ->capture_default_str();
   cmd->add_option("--scheme", args->scheme, "sampling scheme (see docs/sampling.md)")->capture_default_str();
-  cmd->add_option("--res", args->resolution, "parameter map resolution (texels per side)")
+  cmd->add_option("--res", args->resolution, "parameter map resolution, SxT texels (as vdrig fit --res)")
+      ->capture_default_str();
+  cmd->add_option("--holdout", args->holdout,
+                  "views held out of the fit (as vdrig fit --holdout), rendered and compared; at least 1")
       ->capture_default_str()
-      ->check(CLI::Range(4, 4096));
-  cmd->add_option("--holdout", args->holdout, "views held out of the fit and rendered for comparison")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 20));
+      ->check(CLI::PositiveNumber);
   cmd->callback([args] { finish(run_demo(*args)); });
 });
 

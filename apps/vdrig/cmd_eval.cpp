@@ -4,6 +4,8 @@
 #include <string>
 
 #include "commands.hpp"
+#include "progress.hpp"
+#include "vdrig/core/log.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -25,8 +27,16 @@ Status run_eval(const EvalArgs& a) {
   pipeline::EvalOptions options;
   options.dense_directions = a.directions;
   options.session_dir = a.session;
+  // Progress on stdout, except when stdout is the JSON document.
+  ProgressLine progress;
+  if (!a.json)
+    options.on_progress = [&progress](long done, long total) {
+      progress.update(done, total, "  texels %ld/%ld", done, total);
+    };
   auto report = pipeline::evaluate_map(*map, *scene, options);
+  progress.finish();
   if (!report) return report.error();
+  for (const std::string& warning : report->warnings) log::get("app")->warn("{}", warning);
   if (!a.out.empty()) VDRIG_TRY(write_exr(a.out, report->error_map));
   if (a.json)
     std::printf("%s\n", report->to_json().dump(2).c_str());

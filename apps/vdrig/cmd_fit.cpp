@@ -1,6 +1,7 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -13,6 +14,7 @@
 #include "commands.hpp"
 #include "mpi_job.hpp"
 #include "progress.hpp"
+#include "vdrig/capture/session_layout.hpp"
 #include "vdrig/cluster/distributed_fit.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
@@ -59,6 +61,10 @@ std::string fit_command(const FitArgs& a) {
   return cmd;
 }
 
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 pipeline::FitRequest fit_request(const FitArgs& a) {
   pipeline::FitRequest r;
   r.model = a.model;
@@ -73,13 +79,19 @@ pipeline::FitRequest fit_request(const FitArgs& a) {
   return r;
 }
 
-Status run_fit(const FitArgs& a) {
+Status run_fit_steps(const FitArgs& a) {
   auto res = parse_resolution(a.resolution);
   if (!res) return res.error();
   auto session = capture::Session::open(a.session);
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
-  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views);
+  // Views whose observations the fit does not get: held-out views are chosen among the others.
+  std::vector<bool> unusable(static_cast<size_t>(n_views), false);
+  for (int v = 0; v < n_views; ++v) unusable[v] = !session->view_complete(v);
+  if (auto geometry = pipeline::session_geometry(session.value()); geometry)
+    for (size_t v = 0; v < geometry->excluded.size() && v < unusable.size(); ++v)
+      unusable[v] = unusable[v] || geometry->excluded[v];
+  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views, unusable);
   if (!fit_options) return fit_options.error();
   fitting::MapFitOptions& options = fit_options.value();
   const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
@@ -136,6 +148,7 @@ Status run_fit(const FitArgs& a) {
     if (const char* r = std::getenv("VDRIG_TEST_MPI_EXIT_RANK"); r && std::atoi(r) == comm->rank())
       if (const char* n = std::getenv("VDRIG_TEST_MPI_EXIT_AFTER_TILES"))
         distributed.test_exit_after_tiles = std::atoi(n);
+    const auto fit_start = std::chrono::steady_clock::now();
     auto fitted = cluster::fit_distributed(*comm, obs.value(), options, distributed);
     tile_progress.finish();
     if (!fitted) return fitted.error();
@@ -143,6 +156,7 @@ Status run_fit(const FitArgs& a) {
     fitting::ParameterMap& map = fitted->value();
     map.set_source_session(fs::absolute(a.session).string());
     map.image().string_attributes["vdrig.command"] = fit_command(a);
+    map.image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
     VDRIG_TRY(map.write(out));
     // The map is durable (written atomically): its tile records are no longer needed.
     auto store =
@@ -160,11 +174,13 @@ Status run_fit(const FitArgs& a) {
                         p.texels_done, p.texels_total, 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s,
                         p.eta_s);
   };
+  const auto fit_start = std::chrono::steady_clock::now();
   auto map = fitting::fit_parameter_map(obs.value(), options);
   fit_progress.finish();
   if (!map) return map.error();
   map->set_source_session(fs::absolute(a.session).string());
   map->image().string_attributes["vdrig.command"] = fit_command(a);
+  map->image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
   VDRIG_TRY(map->write(out));
 
   const pipeline::FitSummary summary = pipeline::summarize_fit(map.value());
@@ -173,6 +189,23 @@ Status run_fit(const FitArgs& a) {
   if (summary.median_holdout_rms) std::printf(", median held-out RMS %.4g", *summary.median_holdout_rms);
   std::printf("\n");
   return Status::ok();
+}
+
+/// The fit, leaving no empty folder behind when it fails: maps/ and obsmap/ (and --out's folder) are made before the
+/// work, so that a fit that cannot write its output fails early, and removed again when they were made for nothing.
+Status run_fit(const FitArgs& a) {
+  const capture::SessionLayout layout(a.session);
+  std::vector<fs::path> folders = {layout.maps_dir(), layout.obsmap_dir()};
+  if (!a.out.empty() && fs::path(a.out).has_parent_path()) folders.push_back(fs::path(a.out).parent_path());
+  std::vector<fs::path> made;  // folders this fit may create: those absent before it
+  std::error_code ec;
+  for (const fs::path& folder : folders)
+    if (!fs::exists(folder, ec)) made.push_back(folder);
+  const Status status = run_fit_steps(a);
+  if (!status)
+    for (const fs::path& folder : made)
+      if (fs::is_directory(folder, ec) && fs::is_empty(folder, ec)) fs::remove(folder, ec);
+  return status;
 }
 
 const CommandRegistrar kFit([](CLI::App& root) {

@@ -35,12 +35,14 @@ Result<json> read_config(const std::string& file) {
 struct OpenRig {
   std::optional<capture::ProcessLock> lock;
   rig::Rig rig;
+  json config;
 };
 
 Result<OpenRig> open_rig(const RigArgs& a) {
   auto config = read_config(a.config);
   if (!config) return config.error();
   OpenRig open;
+  open.config = config.value();
   auto lock = capture::lock_rig(config.value());
   if (!lock) return lock.error();
   open.lock = std::move(lock.value());
@@ -95,10 +97,18 @@ Status check(const RigArgs& a) {
   return passed ? Status::ok() : make_error(ErrorCode::kDevice, "self-test failed");
 }
 
-Status print_position(rig::PanTiltStage& stage) {
-  auto p = stage.position();
+Status print_position(const OpenRig& open) {
+  auto p = open.rig.stage->position();
   if (!p) return p.error();
   std::printf("pan %.4f deg  tilt %.4f deg\n", p->pan_rad / kRadPerDeg, p->tilt_rad / kRadPerDeg);
+  // A real drive keeps its position after the command; the simulated stage only with a state file (docs/sim.md).
+  const json& sim = open.config.contains("sim") ? open.config["sim"] : json();
+  const bool kept = sim.is_object() && sim.contains("state_file") && sim["state_file"].is_string() &&
+                    !sim["state_file"].get<std::string>().empty();
+  if (open.rig.stage->backend() == "sim" && !kept)
+    std::printf(
+        "(simulated stage: this position is not kept, the next command starts at 0, 0; set \"state_file\" in the "
+        "rig config's \"sim\" section to keep it, docs/sim.md)\n");
   return Status::ok();
 }
 
@@ -106,20 +116,20 @@ Status home(const RigArgs& a) {
   auto open = open_rig(a);
   if (!open) return open.error();
   VDRIG_TRY(open->rig.stage->home());
-  return print_position(*open->rig.stage);
+  return print_position(open.value());
 }
 
 Status move(const RigArgs& a) {
   auto open = open_rig(a);
   if (!open) return open.error();
   VDRIG_TRY(open->rig.stage->move_to({a.pan_deg * kRadPerDeg, a.tilt_deg * kRadPerDeg}));
-  return print_position(*open->rig.stage);
+  return print_position(open.value());
 }
 
 Status position(const RigArgs& a) {
   auto open = open_rig(a);
   if (!open) return open.error();
-  return print_position(*open->rig.stage);
+  return print_position(open.value());
 }
 
 Status shoot(const RigArgs& a) {

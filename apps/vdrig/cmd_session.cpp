@@ -14,6 +14,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/capture/session_check.hpp"
 
 namespace vdrig::app {
@@ -23,7 +24,7 @@ using nlohmann::json;
 struct SessionArgs {
   std::string runtime_dir = capture::default_runtime_dir().string();
   std::string name;
-  std::string scheme = "latlong:6";
+  std::string scheme = capture::kDefaultScheme;
   std::string bracket = "auto";
   std::string scene;
   bool follow = false;

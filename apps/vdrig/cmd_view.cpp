@@ -112,7 +112,12 @@ const CommandRegistrar registrar([](CLI::App& root) {
   cmd->add_option("--session", a->session, "session folder: its camera, captured view poses and photographs");
   cmd->add_flag("--constrained", a->constrained, "start at a captured view (needs --session)");
   cmd->add_option("--view", a->view, "captured view to start at (with --constrained)")->capture_default_str();
-  cmd->add_option("--model", a->model, "map to show first (index into the maps given)")->capture_default_str();
+  cmd->add_option("--map", a->model, "map to show first: its index among the maps given, from 0")
+      ->capture_default_str();
+  // Deprecated: --model names a model (fit, eval); here it was the map index.
+  cmd->add_option("--model", a->model, "deprecated: --map")->group("")->each([](const std::string&) {
+    log::get("app")->warn("view --model is deprecated: write --map (--model names a model in vdrig fit)");
+  });
   cmd->add_option("--display", a->display,
                   "start showing: render | photo | difference (photo/difference need "
                   "--constrained)")

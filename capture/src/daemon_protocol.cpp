@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "session_runner.hpp"
+#include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/json_text.hpp"
 #include "vdrig/core/settings.hpp"
@@ -220,7 +221,7 @@ Reply Protocol::start(const json& request, bool&) {
   }
   PlanRequest plan;
   plan.rig_config = std::move(rig_config);
-  plan.scheme = request.value("scheme", "latlong:6");
+  plan.scheme = request.value("scheme", std::string(kDefaultScheme));
   plan.bracket = request.value("bracket", "auto");
   auto manifest = runner_.start(name, dir, std::move(plan));
   if (!manifest) return manifest.error();

@@ -91,8 +91,13 @@ Status write_exr(const fs::path& path, const ExrImage& image, ExrPixelType type)
     header.compression() = Imf::ZIP_COMPRESSION;
     const Imf::PixelType pt = type == ExrPixelType::kHalf ? Imf::HALF : Imf::FLOAT;
     header.insert("vdrig.format_version", Imf::IntAttribute(1));
-    for (const auto& [k, v] : image.string_attributes) header.insert(k, Imf::StringAttribute(v));
-    for (const auto& [k, v] : image.number_attributes) header.insert(k, Imf::DoubleAttribute(v));
+    // An image read back carries the header's own attributes too (vdrig.format_version, an int; pixelAspectRatio and
+    // screenWindowWidth, floats): inserting them again as doubles made OpenEXR throw, so a map read from a file could
+    // not be written again. The header's attributes are the writer's; only the others are copied.
+    for (const auto& [k, v] : image.string_attributes)
+      if (header.find(k) == header.end()) header.insert(k, Imf::StringAttribute(v));
+    for (const auto& [k, v] : image.number_attributes)
+      if (header.find(k) == header.end()) header.insert(k, Imf::DoubleAttribute(v));
     for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(pt));
     // OpenEXR does not convert pixel types on write (only on read): half channels need half slices. cv::Mat's
     // CV_16F is IEEE binary16, the same layout as Imath::half.

@@ -206,7 +206,7 @@ std::string PhongModel::options_fingerprint(const MapFitOptions& options) const 
 void register_phong_model(ModelRegistry& registry) {
   registry.add(
       {"phong",
-       "phong:K|phong:auto",
+       "phong:K|phong:K:per-lobe-m|phong:auto|phong:auto:per-lobe-m",
        parse_phong,
        {"phong:1", "phong:2", "phong:3", "phong:4", "phong:auto", "phong:2:per-lobe-m", "phong:auto:per-lobe-m"}});
 }

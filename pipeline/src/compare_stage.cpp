@@ -69,6 +69,47 @@ std::vector<int> spread_holdout_views(int views, int count) {
   return out;
 }
 
+std::vector<int> spread_holdout_views(int views, int count, const std::vector<bool>& unusable) {
+  std::vector<int> out;
+  std::vector<bool> taken(static_cast<size_t>(std::max(views, 0)), false);
+  const auto usable = [&](int v) {
+    return v >= 1 && v < views && !taken[v] && !(static_cast<size_t>(v) < unusable.size() && unusable[v]);
+  };
+  for (int wanted : spread_holdout_views(views, count)) {
+    for (int d = 0; d < views; ++d) {
+      const int pick = usable(wanted + d) ? wanted + d : usable(wanted - d) ? wanted - d : -1;
+      if (pick < 0) continue;
+      taken[pick] = true;
+      out.push_back(pick);
+      break;
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+Result<std::vector<int>> common_held_out_views(const std::vector<fs::path>& maps) {
+  std::vector<int> first;
+  for (size_t i = 0; i < maps.size(); ++i) {
+    auto map = fitting::ParameterMap::read(maps[i]);
+    if (!map) return make_error(map.error().code, maps[i].string() + ": " + map.error().message);
+    auto held = held_out_views(map.value());
+    if (!held)
+      return make_error(ErrorCode::kInvalidArgument,
+                        maps[i].string() + " was fitted without --holdout: its fit saw every view, so --holdout has " +
+                            "no view to compare it at (fit it with --holdout N, or name views with --views)");
+    if (i == 0) {
+      first = held.value();
+    } else if (held.value() != first) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        maps[i].string() + " held out other views than " + maps[0].string() +
+                            ": --holdout needs maps fitted with the same --holdout (or name views with --views)");
+    }
+  }
+  if (maps.empty()) return make_error(ErrorCode::kInvalidArgument, "compare needs at least one map");
+  return first;
+}
+
 Result<std::vector<int>> held_out_views(const fitting::ParameterMap& map) {
   const auto& attributes = map.image().string_attributes;
   const auto it = attributes.find(kHeldOutAttribute);

@@ -1,13 +1,16 @@
 #include "vdrig/pipeline/eval_stage.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <mutex>
 #include <opencv2/core/utility.hpp>
 
 #include "ground_truth.hpp"
 #include "vdrig/capture/session.hpp"
+#include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -77,6 +80,40 @@ Result<std::vector<Vec3d>> session_camera_centres(const std::filesystem::path& d
   return centres;
 }
 
+// The name of the simulated scene session `dir` was captured from; empty when the session cannot be opened, is not
+// simulated, or its scene cannot be made (nothing to compare then).
+std::string session_scene_name(const std::filesystem::path& dir) {
+  std::error_code ec;
+  if (dir.empty() || !std::filesystem::is_directory(dir, ec)) return "";
+  auto session = capture::Session::open(dir);
+  if (!session) return "";
+  const nlohmann::json& rig = session->manifest().rig_config;
+  if (!rig.contains("sim")) return "";
+  auto config = sim::SimConfig::from_json(rig["sim"]);
+  if (!config) return "";
+  auto scene = sim::make_scene(config->scene);
+  return scene ? scene->name : "";
+}
+
+// A warning for each session (the map's source session, the one asked for) captured from another scene than `scene`.
+std::vector<std::string> scene_mismatch_warnings(const fitting::ParameterMap& map, const sim::Scene& scene,
+                                                 const std::filesystem::path& session_dir) {
+  std::vector<std::pair<std::string, std::filesystem::path>> sessions;
+  const auto& attributes = map.image().string_attributes;
+  if (const auto it = attributes.find("vdrig.source_session"); it != attributes.end() && !it->second.empty())
+    sessions.push_back({"the map was fitted from", it->second});
+  if (!session_dir.empty()) sessions.push_back({"--session", session_dir});
+  std::vector<std::string> warnings;
+  for (const auto& [what, dir] : sessions) {
+    const std::string captured = session_scene_name(dir);
+    if (captured.empty() || captured == scene.name) continue;
+    warnings.push_back(what + " " + dir.string() + ", a capture of scene \"" + captured +
+                       "\", but is evaluated against scene \"" + scene.name +
+                       "\": the errors measure the difference between the scenes, not the fit");
+  }
+  return warnings;
+}
+
 }  // namespace
 
 std::vector<Vec3d> hemisphere_directions(int n) {
@@ -125,9 +162,12 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
     bool has_lobe = false, valid = false;
   };
   std::vector<PhongTexel> phong(static_cast<size_t>(S) * T);
+  std::atomic<long> texels_done{0};
+  std::mutex progress_mutex;
+  const long texels_total = static_cast<long>(S) * T;
   cv::parallel_for_(cv::Range(0, T), [&](const cv::Range& rows) {
     std::vector<Vec3d> sampled;
-    for (int t = rows.start; t < rows.end; ++t)
+    for (int t = rows.start; t < rows.end; ++t) {
       for (int s = 0; s < S; ++s) {
         const Vec3d p = texel_centre_mm(s, t, S, T, map.width_mm(), map.height_mm());
         material.at<float>(t, s) = texel_material(scene, p, half_w, half_h);
@@ -155,12 +195,19 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
           out.m = best ? std::abs(best->phong_exponent - truth->shininess) / truth->shininess : 1.0;
         }
       }
+      if (options.on_progress) {
+        const long done = texels_done += S;
+        std::lock_guard lock(progress_mutex);
+        options.on_progress(done, texels_total);
+      }
+    }
   });
 
   EvalReport report;
   report.model = map.model().name();
   report.dense_directions = options.dense_directions;
   report.session_views = static_cast<int>(camera_centres.size());
+  report.warnings = scene_mismatch_warnings(map, scene, options.session_dir);
   report.error_map.add("rel_rms", rel);
   if (with_session) report.error_map.add("rel_rms.session", rel_session);
   report.error_map.add("material", material);
@@ -222,17 +269,22 @@ nlohmann::json EvalReport::to_json() const {
     }
     rows.push_back(row);
   }
-  return {
-      {"model", model}, {"dense_directions", dense_directions}, {"session_views", session_views}, {"materials", rows}};
+  return {{"model", model},
+          {"dense_directions", dense_directions},
+          {"session_views", session_views},
+          {"materials", rows},
+          {"warnings", warnings}};
 }
 
 std::string EvalReport::table() const {
+  // Every column is separated by at least one space whatever its value: an error of 1471 (147100 %) once ran into the
+  // texel count before it ("1100147113.78").
   auto pct = [](double x) {
     char buf[32];
     if (std::isfinite(x))
-      std::snprintf(buf, sizeof buf, "%8.2f", 100.0 * x);
+      std::snprintf(buf, sizeof buf, " %9.2f", 100.0 * x);
     else
-      std::snprintf(buf, sizeof buf, "%8s", "-");
+      std::snprintf(buf, sizeof buf, " %9s", "-");
     return std::string(buf);
   };
   const bool session = session_views > 0;
@@ -241,20 +293,20 @@ std::string EvalReport::table() const {
   std::string out = "model " + model + ", relative RMS in % over " + std::to_string(dense_directions) + " directions" +
                     (session ? " and the session's " + std::to_string(session_views) + " views" : "") + "\n";
   char line[256];
-  std::snprintf(line, sizeof line, "%-20s %7s %8s %8s %8s %8s", "material", "texels", "mean", "p95", "p99", "max");
+  std::snprintf(line, sizeof line, "%-20s %7s %9s %9s %9s %9s", "material", "texels", "mean", "p95", "p99", "max");
   out += line;
-  if (session) out += "  sess.mean sess.p95";
-  if (phong) out += "    Kd err   Ks err    m err";
+  if (session) std::snprintf(line, sizeof line, "  %9s %9s", "sess.mean", "sess.p95"), out += line;
+  if (phong) std::snprintf(line, sizeof line, "  %9s %9s %9s", "Kd err", "Ks err", "m err"), out += line;
   out += "\n";
   for (const MaterialEval& m : materials) {
     std::snprintf(line, sizeof line, "%-20.20s %7d", m.name.c_str(), m.texels);
-    out += line + pct(m.dense.mean) + " " + pct(m.dense.p95) + " " + pct(m.dense.p99) + " " + pct(m.dense.max);
-    if (session) out += "   " + pct(m.session.mean) + " " + pct(m.session.p95);
+    out += line + pct(m.dense.mean) + pct(m.dense.p95) + pct(m.dense.p99) + pct(m.dense.max);
+    if (session) out += " " + pct(m.session.mean) + pct(m.session.p95);
     if (phong) {
       if (m.has_phong)
-        out += "  " + pct(m.phong.kd_rel) + " " + pct(m.phong.ks_rel) + " " + pct(m.phong.shininess_rel);
+        out += " " + pct(m.phong.kd_rel) + pct(m.phong.ks_rel) + pct(m.phong.shininess_rel);
       else
-        out += "  " + pct(NAN) + " " + pct(NAN) + " " + pct(NAN);
+        out += " " + pct(NAN) + pct(NAN) + pct(NAN);
     }
     out += "\n";
   }

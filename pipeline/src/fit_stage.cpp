@@ -79,7 +79,8 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
 
 }  // namespace
 
-Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_views) {
+Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_views,
+                                               const std::vector<bool>& unusable) {
   auto model = fitting::parse_model(r.model);
   if (!model) return model.error();
   if (r.residual != "absolute" && r.residual != "relative")
@@ -101,7 +102,17 @@ Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
   // them out of the fit itself.
-  options.held_out = spread_holdout_views(session_views, r.holdout);
+  // Only among the views the fit gets: a held-out view the calibration excluded would test nothing (`vdrig inspect`
+  // then reported 1 of 3 held out).
+  options.held_out = spread_holdout_views(session_views, r.holdout, unusable);
+  if (static_cast<int>(options.held_out.size()) < r.holdout) {
+    int usable = 0;
+    for (int v = 1; v < session_views; ++v) usable += static_cast<size_t>(v) < unusable.size() && unusable[v] ? 0 : 1;
+    return make_error(ErrorCode::kInvalidArgument, "--holdout " + std::to_string(r.holdout) + ": only " +
+                                                       std::to_string(usable) +
+                                                       " usable views besides view 0 (the others are excluded by the "
+                                                       "calibration or incomplete)");
+  }
   return options;
 }
 

@@ -14,6 +14,46 @@ std::string number(const char* printf_format, double value) {
   return buf;
 }
 
+std::string significant(double value, int digits) {
+  if (!std::isfinite(value)) return std::isnan(value) ? "nan" : (value > 0 ? "inf" : "-inf");
+  if (value == 0) return "0";
+  char buf[64];
+  const double magnitude = std::abs(value);
+  if (magnitude >= 1e-4 && magnitude < 1e6) {
+    // Decimals for `digits` significant digits, then trailing zeros dropped ("0.5", not "0.500").
+    const int exponent = static_cast<int>(std::floor(std::log10(magnitude)));
+    const int decimals = std::max(0, digits - 1 - exponent);
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+    std::string s = buf;
+    if (s.find('.') != std::string::npos) {
+      s.erase(s.find_last_not_of('0') + 1);
+      if (s.back() == '.') s.pop_back();
+    }
+    return s;
+  }
+  std::snprintf(buf, sizeof buf, "%.*g", std::max(1, digits), value);
+  return buf;
+}
+
+std::string with_uncertainty(double value, double sigma) {
+  if (!(sigma > 0) || !std::isfinite(sigma) || !std::isfinite(value)) return significant(value, 4);
+  const int decimals = 1 - static_cast<int>(std::floor(std::log10(sigma)));  // sigma to two significant digits
+  if (decimals > 9) return significant(value, 3) + " ± " + significant(sigma, 2);
+  char buf[96];
+  const int d = std::max(0, decimals);
+  std::snprintf(buf, sizeof buf, "%.*f ± %.*f", d, value, d, sigma);
+  std::string s = buf;
+  // "-0.00000": the value is zero at the precision of its uncertainty.
+  if (s.rfind("-", 0) == 0 && s.find_first_not_of("-0.", 0) == s.find(' ')) s.erase(0, 1);
+  return s;
+}
+
+std::string scale_label(double value, double lo, double hi) {
+  const double scale = std::max(std::abs(lo), std::abs(hi));
+  if (std::isfinite(value) && scale > 0 && std::abs(value) <= 1e-6 * scale) return "0";
+  return significant(value, 3);
+}
+
 std::string base64(const std::vector<uchar>& bytes) {
   static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -64,9 +104,9 @@ std::string colour_bar(double lo, double hi, const std::string& label, bool hi_c
     svg += "<stop offset=\"" + number("%.3f", k / 8.0) + "\" stop-color=\"" + viridis(k / 8.0) + "\"/>";
   svg += "</linearGradient></defs><text x=\"5\" y=\"11\" font-size=\"11\">" + escape_html(label) + "</text>";
   svg += "<rect x=\"5\" y=\"15\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
-  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape_html(number("%.4g", lo)) + "</text>";
+  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape_html(scale_label(lo, lo, hi)) + "</text>";
   svg += "<text x=\"255\" y=\"40\" font-size=\"11\" text-anchor=\"end\">" + std::string(hi_clipped ? "&#8805; " : "") +
-         escape_html(number("%.4g", hi)) + "</text>";
+         escape_html(scale_label(hi, lo, hi)) + "</text>";
   return svg + "</svg>";
 }
 

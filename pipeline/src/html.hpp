@@ -15,6 +15,18 @@ namespace vdrig::pipeline::html {
 /// `value` through a printf format with one double conversion ("%.4g").
 std::string number(const char* printf_format, double value);
 
+/// `value` to `digits` significant digits for a reader: plain decimals between 1e-4 and 1e6 ("0.000512", "12.3"),
+/// scientific notation outside ("2.22e-05"), no trailing zeros; "nan" / "inf" as such.
+std::string significant(double value, int digits = 3);
+
+/// A measured value with its standard deviation, both to the decimals of sigma's two significant digits
+/// ("0.00002 ± 0.00051", "12.35 ± 0.21"); a value without a usable sigma (<= 0, not finite) as significant().
+std::string with_uncertainty(double value, double sigma);
+
+/// An end label of a scale from lo to hi: `value` to 3 significant digits, but 0 when it is zero at the scale of the
+/// range (a colour-bar minimum of 2.2e-17 on a 0..0.04 scale is 0).
+std::string scale_label(double value, double lo, double hi);
+
 /// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
 std::string base64(const std::vector<uchar>& bytes);
 

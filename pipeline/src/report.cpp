@@ -231,9 +231,11 @@ std::string calibration_section(const ReportData& d) {
     const nlohmann::json& sigma = views->kinematics.contains("sigma") ? views->kinematics["sigma"] : nlohmann::json();
     for (const auto& [key, value] : views->kinematics.items())
       if (!value.is_array() && !value.is_object()) {
-        std::string cell = value.dump();
-        if (sigma.is_object() && sigma.contains(key) && sigma[key].is_number())
-          cell += " ± " + html::number("%.2g", sigma[key].get<double>());
+        // Numbers to the precision their standard deviation gives them, not as JSON prints doubles
+        // ("2.2193484540451628e-05 ± 0.00051" is "0.00002 ± 0.00051").
+        std::string cell = value.is_number() ? html::significant(value.get<double>(), 4) : value.dump();
+        if (value.is_number() && sigma.is_object() && sigma.contains(key) && sigma[key].is_number())
+          cell = html::with_uncertainty(value.get<double>(), sigma[key].get<double>());
         body += "<tr><th>" + escape_html(key) + "</th><td>" + escape_html(cell) + "</td></tr>";
       }
     body += "</table>\n";
@@ -269,10 +271,13 @@ std::string maps_section(const ReportData& d) {
       continue;
     }
     const auto& attrs = image->string_attributes;
-    const auto attr = [&](const std::string& k) { return attrs.count(k) ? attrs.at(k) : std::string("&#8211;"); };
-    body += "<p>Model <code>" + escape_html(attr("vdrig.model_spec")) + "</code>, " + std::to_string(image->width) +
-            "x" + std::to_string(image->height) +
-            " texels; held-out views: " + escape_html(attr("vdrig.held_out_views")) + ".</p>\n<div class=\"row\">";
+    // Escaped text, or a dash (markup, not escaped again: it once showed as a literal "&#8211;").
+    const auto attr = [&](const std::string& k) {
+      return attrs.count(k) && !attrs.at(k).empty() ? escape_html(attrs.at(k)) : std::string("&#8211;");
+    };
+    body += "<p>Model <code>" + attr("vdrig.model_spec") + "</code>, " + std::to_string(image->width) + "x" +
+            std::to_string(image->height) + " texels; held-out views: " + attr("vdrig.held_out_views") +
+            ".</p>\n<div class=\"row\">";
     const cv::Mat rms = rgb_mean(*image, "rms");
     if (!rms.empty()) body += false_colour(rms, "fit residual RMS (mean of R, G, B)", d.options->map_image_px);
     const cv::Mat holdout = rgb_mean(*image, "holdout");
@@ -306,7 +311,7 @@ Result<std::string> compare_section(const ReportData& d) {
     if (!d.options->compare_json.empty()) return make_error(ErrorCode::kNotFound, file.string() + " does not exist");
     return section("compare", "Renders against photographs",
                    missing("a comparison (vdrig compare " + escape_html(d.session->dir().string()) +
-                           " --maps phong:1 --holdout writes " + escape_html(file.string()) + ")"));
+                           " --maps phong:1 --views held-out writes " + escape_html(file.string()) + ")"));
   }
   auto json = read_json_file(file);
   if (!json) return json.error();
@@ -319,7 +324,8 @@ Result<std::string> compare_section(const ReportData& d) {
       html::number("%.0f", 100 * report->highlight_fraction) + " % of the total in map <code>" +
       escape_html(report->region_map) + "</code>. Difference images amplified 8x.</p>\n";
   body +=
-      "<table><thead><tr><th>map</th><th>view</th><th>diffuse</th><th>highlight</th><th>all</th><th>render</th>"
+      "<div class=\"wide\"><table><thead><tr><th>map</th><th>view</th><th>diffuse</th><th>highlight</th><th>all</th>"
+      "<th>render</th>"
       "<th>photo</th><th>difference x8</th><th>regions</th></tr></thead><tbody>\n";
   auto cell = [](const DifferenceStats& s) {
     return s.samples == 0 ? std::string("&#8211;")
@@ -344,7 +350,7 @@ Result<std::string> compare_section(const ReportData& d) {
     }
     body += "</tr>\n";
   }
-  body += "</tbody></table>\n";
+  body += "</tbody></table></div>\n";
   if (!absent.empty()) body += missing("compare images (run vdrig compare again):" + escape_html(absent));
   if (!report->command.empty()) body += "<p>Made by <code>" + escape_html(report->command) + "</code>.</p>\n";
   return section("compare", "Renders against photographs", body);
@@ -468,7 +474,7 @@ std::string provenance_section(const ReportData& d, double build_s) {
   if (!m.extra.empty()) row("manifest extra", "<code>" + escape_html(m.extra.dump()) + "</code>");
   body +=
       "</table>\n<h3>Stage timings</h3><table><tr><th>stage</th><th>from</th><th>to / written</th>"
-      "<th>duration s</th></tr>";
+      "<th>duration, s</th></tr>";
   int64_t first = 0, last = 0;
   for (const auto& f : s.frames()) {
     first = first == 0 ? f.timestamp_ns : std::min(first, f.timestamp_ns);
@@ -476,15 +482,20 @@ std::string provenance_section(const ReportData& d, double build_s) {
   }
   body += "<tr><td>capture (journal timestamps)</td><td></td><td></td><td>" +
           (s.frames().empty() ? std::string("no frames") : html::number("%.1f", (last - first) * 1e-9)) + "</td></tr>";
-  // Later stages record no timings of their own: their outputs' modification times bound them.
+  // HDR merge and observation maps record no timings of their own: their outputs' modification times say when they
+  // ended, and for several files a lower bound of the stage's length (the first file's own work is not in it). A
+  // single file (an observation map) bounds nothing: its time is shown, its duration is not recorded. Fits record
+  // their wall time in the map (vdrig.fit_seconds); the span of the maps' write times was no fit's duration.
   auto span_of = [&](const std::string& stage, const fs::path& dir, const std::string& ext) {
     std::error_code ec;
     std::optional<fs::file_time_type> lo, hi;
+    int files = 0;
     if (fs::is_directory(dir, ec))
       for (const auto& e : fs::directory_iterator(dir, ec))
         if (e.is_regular_file() && e.path().extension() == ext) {
           const auto t = e.last_write_time(ec);
           if (ec) continue;
+          ++files;
           lo = lo ? std::min(*lo, t) : t;
           hi = hi ? std::max(*hi, t) : t;
         }
@@ -492,12 +503,29 @@ std::string provenance_section(const ReportData& d, double build_s) {
       body += "<tr><td>" + escape_html(stage) + "</td><td colspan=\"3\" class=\"missing\">not run</td></tr>";
       return;
     }
-    body += "<tr><td>" + escape_html(stage) + "</td><td>" + utc(*lo) + "</td><td>" + utc(*hi) + "</td><td>" +
-            html::number("%.1f", std::chrono::duration<double>(*hi - *lo).count()) + "</td></tr>";
+    const std::string duration =
+        files < 2 ? std::string("not recorded")
+                  : "&#8805; " + html::significant(std::chrono::duration<double>(*hi - *lo).count(), 3) +
+                        " (first to last file written)";
+    body += "<tr><td>" + escape_html(stage) + "</td><td>" + utc(*lo) + "</td><td>" + utc(*hi) + "</td><td>" + duration +
+            "</td></tr>";
   };
   span_of("HDR merge (hdr/*.exr written)", layout.hdr_dir(), ".exr");
   span_of("observation maps (obsmap/*.vdobs written)", layout.obsmap_dir(), ".vdobs");
-  span_of("fits (maps/*.exr written)", layout.maps_dir(), ".exr");
+  for (const fs::path& file : d.map_files) {
+    auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
+    std::error_code ec;
+    const auto written = fs::last_write_time(file, ec);
+    std::string seconds = "not recorded (an older map)";
+    if (image)
+      if (const auto it = image->number_attributes.find(fitting::kFitSecondsAttribute);
+          it != image->number_attributes.end())
+        seconds = html::significant(it->second, 3);
+    body += "<tr><td>fit " + escape_html(file.filename().string()) + "</td><td></td><td>" +
+            (ec ? std::string() : utc(written)) + "</td><td>" + seconds + "</td></tr>";
+  }
+  if (d.map_files.empty())
+    body += "<tr><td>fits (maps/*.exr)</td><td colspan=\"3\" class=\"missing\">not run</td></tr>";
   span_of("comparison (compare.json written)", layout.compare_dir(), ".json");
   body += "<tr><td>this report</td><td></td><td></td><td>" + html::number("%.2f", build_s) + "</td></tr></table>\n";
   body += "<h3>Commands</h3><ul><li>capture: scheme <code>" + escape_html(m.scheme) + "</code> (" +
@@ -525,9 +553,12 @@ std::string provenance_section(const ReportData& d, double build_s) {
 constexpr const char* kStyle = R"(
 body { font-family: sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
 h1 { font-size: 1.5em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; } h3 { margin-bottom: 0.3em; }
-table { border-collapse: collapse; font-size: 0.85em; } td, th { border: 1px solid #ddd; padding: 2px 6px; white-space: nowrap; }
+table { border-collapse: collapse; font-size: 0.85em; max-width: 100%; }
+td, th { border: 1px solid #ddd; padding: 2px 6px; } th { white-space: nowrap; }
+td code { overflow-wrap: anywhere; } /* long JSON and paths wrap instead of running off the page */
 th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
-.scroll { max-height: 360px; overflow-y: auto; display: inline-block; }
+.scroll { max-height: 360px; max-width: 100%; overflow: auto; display: inline-block; }
+.wide { max-width: 100%; overflow-x: auto; } /* tables of thumbnails scroll inside the page at any width */
 .missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; } figure { margin: 0.5em 0; } figcaption { font-size: 0.8em; }
 .texel { max-width: 280px; } img { image-rendering: pixelated; }

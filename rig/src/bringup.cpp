@@ -90,10 +90,14 @@ SelfTestStep test_move(PanTiltStage& stage, const std::string& name, const PanTi
   if (!at) return step(name, false, "position read-back failed: " + at.error().describe());
   const double pan_err = (at->pan_rad - target.pan_rad) * kDegPerRad;
   const double tilt_err = (at->tilt_rad - target.tilt_rad) * kDegPerRad;
-  const double expected_s = move_time_s(stage.spec(), from, target);
+  // A stage whose moves run faster than real time by design (the simulator's time_scale) is timed against its profile
+  // scaled the same way: otherwise a simulated rig with time_scale 0 failed as "much faster than the profile".
+  const double scale = stage.wall_time_scale();
+  const double expected_s = move_time_s(stage.spec(), from, target) * scale;
   std::string detail = fmt("to (%.3f, %.3f) deg: read back error (%.4f, %.4f) deg", target.pan_rad * kDegPerRad,
                            target.tilt_rad * kDegPerRad, pan_err, tilt_err) +
-                       fmt(", took %.3f s, profile %.3f s", took_s, expected_s);
+                       fmt(", took %.3f s, profile %.3f s", took_s, expected_s) +
+                       (scale != 1.0 ? fmt(" (time scale %g)", scale) : std::string());
   if (std::abs(pan_err) > o.position_tolerance_deg || std::abs(tilt_err) > o.position_tolerance_deg)
     return step(name, false, detail + fmt(": beyond the tolerance of %.4f deg", o.position_tolerance_deg));
   // Polling and settling add time, so only a move much faster than the profile, or far slower, is suspect: the

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <thread>
 
+#include "vdrig/core/file_read.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/core/settings.hpp"
 #include "vdrig/rig/geometry_config.hpp"
@@ -93,7 +96,7 @@ Result<SimConfig> SimConfig::from_json(const json& j) {
   SimConfig c;
   Settings s(j, "sim");
   s.reject_unknown({"scene", "distance_mm", "surface_offset_mm", "pan_zero_deg", "tilt_zero_deg", "pan_axis_tilt_deg",
-                    "samples_per_axis", "time_scale", "seed", "camera", "stage", "faults"});
+                    "samples_per_axis", "time_scale", "seed", "state_file", "camera", "stage", "faults"});
   c.scene = s.string("scene", c.scene);
   c.geometry.camera_distance_mm = s.number("distance_mm", c.geometry.camera_distance_mm);
   const Vec3d& o = c.geometry.surface_offset_mm;
@@ -107,6 +110,7 @@ Result<SimConfig> SimConfig::from_json(const json& j) {
   c.geometry.pan_axis_tilt_y_rad = deg_to_rad(axis_tilt[1]);
   c.samples_per_axis = read_int(s, "samples_per_axis", c.samples_per_axis);
   c.time_scale = s.number("time_scale", c.time_scale);
+  c.state_file = s.string("state_file", c.state_file);
   c.sensor.seed = s.unsigned_integer("seed", c.sensor.seed);
   if (s.has("faults")) read_faults(s, s.object("faults", true), c.faults);
   if (s.has("camera")) read_camera(s, s.object("camera", true), c);
@@ -149,17 +153,56 @@ void sleep_s(double s) {
   if (s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(s));
 }
 
+/// The stage's position and homed flag in config.state_file (when set), as a real drive keeps them between processes.
+Status save_state(SimWorld& world) {
+  if (world.config.state_file.empty()) return Status::ok();
+  json state;
+  {
+    std::lock_guard lock(world.mutex);
+    state = {{"format", "vdrig.sim.stage_state"},
+             {"pan_deg", rad_to_deg(world.position.pan_rad)},
+             {"tilt_deg", rad_to_deg(world.position.tilt_rad)},
+             {"homed", world.homed}};
+  }
+  const Status written = write_file_atomic(world.config.state_file, state.dump(2) + "\n");
+  if (!written)
+    return make_error(written.error().code, "sim stage: cannot keep its position in state_file " +
+                                                world.config.state_file + ": " + written.error().message);
+  return Status::ok();
+}
+
+/// Reads config.state_file into the world when the file exists (a missing file: the stage starts at 0, 0).
+Status load_state(SimWorld& world) {
+  std::error_code ec;
+  if (world.config.state_file.empty() || !std::filesystem::exists(world.config.state_file, ec)) return Status::ok();
+  auto state = read_json_file(world.config.state_file);
+  const auto corrupt = [&](const std::string& why) {
+    return make_error(ErrorCode::kCorrupt, "sim state_file " + world.config.state_file + ": " + why +
+                                               " (delete it to start the stage at 0, 0)");
+  };
+  if (!state) return corrupt(state.error().message);
+  if (!state->is_object() || state->value("format", "") != "vdrig.sim.stage_state" || !state->contains("pan_deg") ||
+      !(*state)["pan_deg"].is_number() || !state->contains("tilt_deg") || !(*state)["tilt_deg"].is_number())
+    return corrupt("not a simulated stage's state");
+  world.position = {deg_to_rad((*state)["pan_deg"].get<double>()), deg_to_rad((*state)["tilt_deg"].get<double>())};
+  world.homed = state->value("homed", false);
+  return Status::ok();
+}
+
 class SimStage final : public rig::PanTiltStage {
  public:
   explicit SimStage(std::shared_ptr<SimWorld> world) : world_(std::move(world)) {}
   std::string backend() const override { return "sim"; }
   rig::StageSpec spec() const override { return world_->config.stage; }
+  double wall_time_scale() const override { return world_->config.time_scale; }
 
   Status home() override {
     VDRIG_TRY(move(PanTilt{}, false));
-    std::lock_guard lock(world_->mutex);
-    world_->homed = true;
-    return Status::ok();
+    {
+      std::lock_guard lock(world_->mutex);
+      world_->homed = true;
+    }
+    return save_state(*world_);
   }
 
   Status move_to(const PanTilt& target) override { return move(target, true); }
@@ -201,9 +244,12 @@ class SimStage final : public rig::PanTiltStage {
     if (times_out) reached = {(from.pan_rad + target.pan_rad) / 2.0, (from.tilt_rad + target.tilt_rad) / 2.0};
     const double t = rig::move_time_s(s, from, reached);
     sleep_s(t * c.time_scale);
-    std::lock_guard lock(world_->mutex);
-    world_->position = reached;
-    world_->motion_time_s += t;
+    {
+      std::lock_guard lock(world_->mutex);
+      world_->position = reached;
+      world_->motion_time_s += t;
+    }
+    VDRIG_TRY(save_state(*world_));
     if (times_out)
       return make_error(ErrorCode::kTimeout,
                         "sim stage: move did not finish in time (injected fault, move " + std::to_string(call) + ")");
@@ -341,6 +387,7 @@ Result<std::shared_ptr<SimWorld>> shared_world(rig::RigContext& ctx) {
   auto world = std::make_shared<SimWorld>();
   world->config = std::move(config.value());
   world->scene = std::move(scene.value());
+  VDRIG_TRY(load_state(*world));
   ctx.shared["sim.world"] = world;
   log::get("sim")->debug("simulated rig: scene {}, camera {}x{}", world->scene.name, world->config.camera.width,
                          world->config.camera.height);

@@ -18,7 +18,7 @@ TEST(CliDemo, RefusesANonEmptySessionFolderAndDeletesNothing) {
   testing::write_text(session / "notes.txt", "my notes\n");
   testing::write_text(session / "calib" / "response.json", "{}\n");
   const auto r = testing::run_process({testing::vdrig_cli(), "demo", "--out", root.path().string(), "--scheme",
-                                       "latlong:2", "--res", "4", "--holdout", "1"});
+                                       "latlong:2", "--res", "4x4", "--holdout", "1"});
   EXPECT_NE(r.exit_code, 0) << r.out << r.err;
   EXPECT_TRUE(fs::exists(session / "notes.txt")) << "the demo deleted a user's file";
   EXPECT_TRUE(fs::exists(session / "calib" / "response.json")) << "the demo deleted a user's file";
@@ -30,12 +30,12 @@ TEST(CliDemo, RunsAgainOverItsOwnSessionButNeverOverAUsersFile) {
   vdrig::test::TempDir root("demo_again");
   const fs::path session = root.path() / "session";
   const std::vector<std::string> demo = {testing::vdrig_cli(), "demo",  "--out", root.path().string(), "--scheme",
-                                         "latlong:2",          "--res", "4",     "--holdout",          "1"};
+                                         "latlong:2",          "--res", "4x4",   "--holdout",          "1"};
   const auto first = testing::run_process(demo, {600.0});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
   // What `vdrig compare` writes into the session by default (renders/compare/) is the demo's too.
   const auto compared = testing::run_process(
-      {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--holdout"}, {600.0});
+      {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--views", "held-out"}, {600.0});
   ASSERT_EQ(compared.exit_code, 0) << compared.out << compared.err;
   EXPECT_TRUE(fs::exists(session / "renders" / "compare" / "compare.json"));
   const auto again = testing::run_process(demo, {600.0});  // the README's `./vdrig.sh demo`, run a second time

@@ -173,6 +173,30 @@ TEST_F(RigCli, SelfTestCatchesAWordOrderMismatch) {
   EXPECT_NE(r.out.find("self-test FAILED"), std::string::npos) << r.out;
 }
 
+// The README's bring-up steps on the simulator: `vdrig rig check --self-test` passes (moves timed against the profile
+// scaled by time_scale), and `vdrig rig move` then `vdrig rig position` read the same position when the "sim" section
+// names a state file; without one, position says that it is not kept.
+TEST_F(RigCli, SimulatedRigSelfTestAndPositionAcrossCommands) {
+  json config = testing::small_sim_config();
+  testing::write_text(rig_file_, config.dump(2));
+  const auto checked = vdrig({"rig", "check", rig_file_.string(), "--self-test"});
+  EXPECT_EQ(checked.exit_code, 0) << checked.out << checked.err;
+  EXPECT_NE(checked.out.find("self-test passed"), std::string::npos) << checked.out;
+
+  const auto forgotten = vdrig({"rig", "position", "--rig", rig_file_.string()});
+  ASSERT_EQ(forgotten.exit_code, 0) << forgotten.out << forgotten.err;
+  EXPECT_NE(forgotten.out.find("not kept"), std::string::npos) << forgotten.out;
+
+  config["sim"]["state_file"] = (dir_.path() / "stage_state.json").string();
+  testing::write_text(rig_file_, config.dump(2));
+  const auto moved = vdrig({"rig", "move", "--rig", rig_file_.string(), "--pan", "10", "--tilt", "20"});
+  ASSERT_EQ(moved.exit_code, 0) << moved.out << moved.err;
+  const auto read_back = vdrig({"rig", "position", "--rig", rig_file_.string()});
+  ASSERT_EQ(read_back.exit_code, 0) << read_back.out << read_back.err;
+  EXPECT_NE(read_back.out.find("pan 10.0000 deg  tilt 20.0000 deg"), std::string::npos) << read_back.out;
+  EXPECT_EQ(read_back.out.find("not kept"), std::string::npos) << read_back.out;
+}
+
 TEST_F(RigCli, HomeMovePositionAndShoot) {
   start_peer();
   if (IsSkipped()) return;

@@ -220,6 +220,43 @@ TEST_F(CliHardening, FitRefusesAMapThatCouldNotBeReadBackBeforeFitting) {
   EXPECT_EQ(vdrig("fit '" + session().string() + "' --model phong:1 --res 8x8").exit_code, 0);
 }
 
+// Issue #27: a mistyped flag gets the nearest flag of the subcommand it was given to; a flag far from every valid one
+// gets no guess.
+TEST_F(CliHardening, AMistypedFlagGetsTheNearestFlag) {
+  const std::string s = "'" + session().string() + "'";
+  ProcessRun r = vdrig("fit " + s + " --modle phong:1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--modle: did you mean --model?"), std::string::npos) << r.err;
+  r = vdrig("compare " + s + " --maps phong:1 --veiws 1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--veiws: did you mean --views?"), std::string::npos) << r.err;
+  r = vdrig("fit " + s + " --res=8x8 --smoothnig=1e-4");  // --name=value too
+  EXPECT_NE(r.err.find("--smoothnig: did you mean --smoothing?"), std::string::npos) << r.err;
+  r = vdrig("fit " + s + " --zqxwv 1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.err.find("did you mean"), std::string::npos) << r.err;
+}
+
+TEST_F(CliHardening, FitHelpListsEveryModelForm) {
+  const ProcessRun r = vdrig("fit --help");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const char* form : {"phong:K", "phong:K:per-lobe-m", "phong:auto", "phong:auto:per-lobe-m"})
+    EXPECT_NE(r.out.find(form), std::string::npos) << form << " missing from:\n" << r.out;
+}
+
+// A fit that fails (here: no HDR views to build the observation map from) leaves no empty maps/ or obsmap/ folder.
+TEST_F(CliHardening, AFailedFitLeavesNoEmptyFolders) {
+  const fs::path s = dir_ / "no_hdr";
+  fs::copy(session(), s, fs::copy_options::recursive);
+  fs::remove_all(s / "hdr");
+  fs::remove_all(s / "maps");
+  fs::remove_all(s / "obsmap");
+  const ProcessRun r = vdrig("fit '" + s.string() + "' --model phong:1 --res 8x8");
+  EXPECT_NE(r.exit_code, 0) << r.out;
+  EXPECT_FALSE(fs::exists(s / "maps")) << "an empty maps/ was left behind";
+  EXPECT_FALSE(fs::exists(s / "obsmap")) << "an empty obsmap/ was left behind";
+}
+
 TEST_F(CliHardening, ObservationMapFilesGetTheModeOfOtherOutputs) {
   const fs::path file = dir_ / "mode.vdobs";
   const ProcessRun r = vdrig("obsmap build '" + session().string() + "' --res 8x8 --out '" + file.string() + "'");

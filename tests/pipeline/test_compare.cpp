@@ -35,6 +35,45 @@ TEST(SpreadHoldoutViews, AsFitAndDemoPickThem) {
   EXPECT_TRUE(spread_holdout_views(10, 0).empty());
 }
 
+// Held-out views are picked among the views the fit gets: one the calibration excluded gives way to its nearest
+// usable neighbour (`vdrig inspect` then reports every held-out view asked for).
+TEST(SpreadHoldoutViews, NeverPicksAViewTheFitDoesNotGet) {
+  std::vector<bool> unusable(188, false);
+  EXPECT_EQ(spread_holdout_views(188, 3, unusable), spread_holdout_views(188, 3));
+  unusable[47] = unusable[48] = unusable[141] = true;
+  EXPECT_EQ(spread_holdout_views(188, 3, unusable), (std::vector<int>{46, 94, 142}));
+  // Too few usable views: fewer picks, never view 0, never an unusable one, never one twice.
+  EXPECT_EQ(spread_holdout_views(4, 3, {false, true, false, true}), (std::vector<int>{2}));
+  EXPECT_TRUE(spread_holdout_views(2, 1, {false, true}).empty());
+}
+
+// `vdrig compare --holdout` compares only where every map's fit held the views out: a map fitted without --holdout
+// (or with other held-out views) is an error naming it, never a comparison at views it was fitted on.
+TEST(CommonHeldOutViews, EveryMapMustHaveHeldOutTheSameViews) {
+  const ::vdrig::test::TempDir dir("held_out");
+  auto write_map = [&](const std::string& name, const std::string& held_out) {
+    fitting::ParameterMap map(fitting::parse_model("phong:1").value(), 4, 4, 1000.0, 1000.0);
+    if (!held_out.empty()) map.image().string_attributes["vdrig.held_out_views"] = held_out;
+    const fs::path file = dir.path() / (name + ".exr");
+    EXPECT_TRUE(map.write(file));
+    return file;
+  };
+  const fs::path a = write_map("a", "12,40"), b = write_map("b", "12,40"), none = write_map("none", ""),
+                 other = write_map("other", "13,40");
+  auto both = common_held_out_views({a, b});
+  ASSERT_TRUE(both) << both.error().describe();
+  EXPECT_EQ(both.value(), (std::vector<int>{12, 40}));
+  for (const fs::path& bad : {none, other}) {
+    auto refused = common_held_out_views({a, bad});
+    ASSERT_FALSE(refused) << bad;
+    EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_NE(refused.error().message.find(bad.string()), std::string::npos) << refused.error().message;
+  }
+  auto alone = common_held_out_views({none});
+  ASSERT_FALSE(alone);
+  EXPECT_NE(alone.error().message.find("without --holdout"), std::string::npos) << alone.error().message;
+}
+
 class Compare : public ::testing::Test {
  protected:
   const ::vdrig::test::TempDir dir_{"compare"};

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
@@ -141,6 +144,67 @@ TEST(Eval, OverTheDirectionsASessionSampled) {
 
   options.session_dir = dir.path() / "no such session";
   EXPECT_FALSE(evaluate_map(truth_map(scene, 4, 1.0), scene, options).is_ok());
+}
+
+// `vdrig eval --scene bands` on a map fitted from a patchwork session measures the scenes' difference: the report
+// warns, naming both scenes; against its own scene it does not.
+TEST(Eval, WarnsWhenTheMapWasFittedFromAnotherScene) {
+  test::TempDir dir("eval_mismatch");
+  CaptureRequest req;
+  req.out_dir = dir.path() / "session";
+  req.rig_config = sim::sim_rig_config(
+      {{"scene", "patchwork"}, {"camera", {{"width", 80}, {"height", 60}, {"fx", 100.0}, {"fy", 100.0}}}});
+  req.scheme = "latlong:2";
+  req.exposures_s = {0.25};
+  ASSERT_TRUE(capture_session(req));
+  const sim::Scene patchwork = sim::make_scene("patchwork").value(), bands = sim::make_scene("bands").value();
+  fitting::ParameterMap map = truth_map(patchwork, 8, 1.0);
+  map.set_source_session(req.out_dir.string());
+  EvalOptions options;
+  options.dense_directions = 50;
+  long last_done = 0, total = 0;
+  options.on_progress = [&](long done, long texels) { last_done = done, total = texels; };
+
+  const auto own = evaluate_map(map, patchwork, options);
+  ASSERT_TRUE(own.is_ok()) << own.error().message;
+  EXPECT_TRUE(own->warnings.empty()) << own->warnings.front();
+  EXPECT_EQ(total, 64);
+  EXPECT_EQ(last_done, 64) << "progress reaches every texel";
+
+  const auto other = evaluate_map(map, bands, options);
+  ASSERT_TRUE(other.is_ok()) << other.error().message;
+  ASSERT_EQ(other->warnings.size(), 1u);
+  EXPECT_NE(other->warnings[0].find("\"patchwork\""), std::string::npos) << other->warnings[0];
+  EXPECT_NE(other->warnings[0].find("\"bands\""), std::string::npos) << other->warnings[0];
+  // --session of the other scene too: one warning per session.
+  options.session_dir = req.out_dir;
+  const auto both = evaluate_map(map, bands, options);
+  ASSERT_TRUE(both.is_ok()) << both.error().message;
+  EXPECT_EQ(both->warnings.size(), 2u);
+}
+
+// The table's columns are apart whatever the values: a 1100-texel row with a 147113.78 % error once printed as
+// "1100147113.78".
+TEST(Eval, TableColumnsNeverRunTogether) {
+  EvalReport report;
+  report.model = "phong:1";
+  report.dense_directions = 1000;
+  MaterialEval m;
+  m.name = "cloth";
+  m.texels = 1100;
+  m.dense = {1471.1378, 2000.0, 99999.0, 123456.789};
+  m.has_phong = true;
+  m.phong = {12345.6, 0.5, 0.25};
+  report.materials = {m};
+  const std::string table = report.table();
+  const size_t row_start = table.find("\ncloth");
+  ASSERT_NE(row_start, std::string::npos) << table;
+  std::istringstream row(table.substr(row_start + 1, table.find('\n', row_start + 1) - row_start - 1));
+  std::vector<std::string> cells;
+  for (std::string cell; row >> cell;) cells.push_back(cell);
+  EXPECT_EQ(cells, (std::vector<std::string>{"cloth", "1100", "147113.78", "200000.00", "9999900.00", "12345678.90",
+                                             "1234560.00", "50.00", "25.00"}))
+      << table;
 }
 
 TEST(Eval, GgxTruthIsModelMismatchForAPhongMap) {

@@ -31,6 +31,24 @@ TEST(FitStage, OptionsFromARequest) {
   EXPECT_TRUE(o->model_options.get<fitting::PhongFitOptions>().significant_lobes_only);
 }
 
+TEST(FitStage, HeldOutViewsAreOnlyViewsTheFitGets) {
+  FitRequest r;
+  r.holdout = 3;
+  std::vector<bool> unusable(40, false);
+  for (int v : spread_holdout_views(40, 3)) unusable[v] = true;  // the calibration excluded every usual pick
+  auto o = fit_options_for(r, 40, unusable);
+  ASSERT_TRUE(o.is_ok()) << o.error().describe();
+  ASSERT_EQ(o->held_out.size(), 3u);
+  for (int v : o->held_out) EXPECT_FALSE(unusable[v]) << "view " << v << " is not in the fit";
+  // Too few usable views for --holdout: an error that says so, not fewer held out.
+  std::vector<bool> most(10, true);
+  most[0] = most[4] = false;
+  r.holdout = 2;
+  auto refused = fit_options_for(r, 10, most);
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_NE(refused.error().message.find("--holdout 2: only 1 usable"), std::string::npos) << refused.error().message;
+}
+
 TEST(FitStage, SmoothingDefaultsToTheBasisFitsThatRing) {
   FitRequest r;
   r.model = "hsh:3";

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 
 #include "small_session.hpp"
@@ -59,6 +60,40 @@ TEST_F(Report, SessionWithMissingPartsShowsWhatIsThereAndNamesWhatIsMissing) {
   EXPECT_NE(section_of(*damaged, "coverage").find("<circle"), std::string::npos);
 }
 
+// What a reader sees: dashes written once (a literal "&#8211;" showed where &#8211; was escaped twice), numbers to a
+// few significant digits (no "2.2193484540451628e-05"), a colour bar from 0 where its minimum is 0 at the scale shown
+// (not "2.201e-17"), and fit timings the fit recorded rather than the span of the maps' write times.
+TEST_F(Report, DashesOnceNumbersReadableTimingsRecorded) {
+  auto session = test::small_merged_session(dir_ / "session");
+  ASSERT_TRUE(session) << session.error().describe();
+  const double w = session->manifest().surface_width_mm, h = session->manifest().surface_height_mm;
+  fitting::ParameterMap old_map(fitting::parse_model("phong:1").value(), 8, 8, w, h);  // no held-out views
+  fitting::ParameterMap timed(fitting::parse_model("phong:1").value(), 8, 8, w, h);
+  for (int t = 0; t < 8; ++t)
+    for (int s = 0; s < 8; ++s)
+      for (const char* c : {"rms.R", "rms.G", "rms.B"})
+        timed.at(c, s, t) = s + t == 0 ? 2.201e-17f : 0.04f * (s + 1) / 8;
+  timed.image().number_attributes[fitting::kFitSecondsAttribute] = 51.0437;
+  fs::create_directories(session->layout().maps_dir());
+  ASSERT_TRUE(old_map.write(session->layout().parameter_map_file("old")));
+  ASSERT_TRUE(timed.write(session->layout().parameter_map_file("timed")));
+
+  auto html = build_report_html(dir_ / "session");
+  ASSERT_TRUE(html) << html.error().describe();
+  EXPECT_EQ(html->find("&amp;#"), std::string::npos) << "an entity escaped twice";
+  EXPECT_NE(section_of(*html, "maps").find("held-out views: &#8211;"), std::string::npos) << section_of(*html, "maps");
+  EXPECT_EQ(html->find("e-17"), std::string::npos) << "the colour bar's minimum is 0 at its scale";
+  const std::string provenance = section_of(*html, "provenance");
+  EXPECT_NE(provenance.find("<td>51</td>"), std::string::npos) << provenance;
+  EXPECT_NE(provenance.find("not recorded (an older map)"), std::string::npos) << provenance;
+  // No number printed with more digits than anyone reads (a raw double has 15 to 17); inline images left out.
+  std::string text = *html;
+  for (size_t at = text.find("base64,"); at != std::string::npos; at = text.find("base64,", at))
+    text.erase(at, text.find('"', at) - at);
+  std::smatch raw;
+  EXPECT_FALSE(std::regex_search(text, raw, std::regex(R"(\d\.\d{9,})"))) << "a raw number: " << raw.str();
+}
+
 TEST_F(Report, DamagedSessionIsAClearError) {
   auto session = test::small_merged_session(dir_ / "session");
   ASSERT_TRUE(session);
@@ -105,6 +140,9 @@ window.addEventListener('load', () => {
   for (const id of SECTIONS)
     if (!document.querySelector('section#' + id)) problems.push('missing section ' + id);
   for (const r of performance.getEntriesByType('resource')) problems.push('fetched: ' + r.name);
+  // Nothing runs off the page at the window's width (1280 px): long cells wrap, wide tables scroll inside it.
+  const width = document.documentElement.scrollWidth;
+  if (width > window.innerWidth) problems.push('wider than the window: ' + width + ' px > ' + window.innerWidth + ' px');
   for (const e of document.querySelectorAll('[src], [href]')) {
     const url = e.getAttribute('src') || e.getAttribute('href');
     if (!url.startsWith('data:') && !url.startsWith('#')) problems.push('external reference: ' + url);
@@ -149,6 +187,7 @@ BrowserVerdict load_in_browser(const std::string& chromium, const std::string& h
                                          "--enable-logging=stderr",
                                          "--v=0",
                                          "--virtual-time-budget=5000",
+                                         "--window-size=1280,1024",  // the width the issue read the report at
                                          "--dump-dom",
                                          "file://" + fs::absolute(page).string()};
   const vdrig::test::ProcessRun run = vdrig::test::run_process(argv, {60});
@@ -227,12 +266,12 @@ TEST_F(Report, BrowserCheckCatchesBrokenPages) {
   const std::string broken =
       "<!DOCTYPE html><html><head><title>broken</title></head><body><section id=\"coverage\"></section>"
       "<img alt=\"bad\" src=\"data:image/png;base64,AAAA\"><img alt=\"far\" src=\"missing.png\">"
-      "<script>console.error('boom')</script></body></html>";
+      "<div style=\"width: 3000px\">wide</div><script>console.error('boom')</script></body></html>";
   const BrowserVerdict verdict = load_in_browser(chromium, broken, dir_);
   ASSERT_TRUE(verdict.ran) << verdict.failure;
   const std::string problems = verdict.problems.dump();
   for (const char* expected : {"image not decoded: bad", "image not decoded: far", "console.error: boom",
-                               "missing section views", "external reference: missing.png"})
+                               "missing section views", "external reference: missing.png", "wider than the window"})
     EXPECT_NE(problems.find(expected), std::string::npos) << expected << " in " << problems;
   EXPECT_FALSE(verdict.console_lines.empty());
 }

@@ -20,7 +20,9 @@ TEST(SessionLinks, ALinkedHdrFolderIsRefusedAndNothingIsWrittenThrough) {
   fs::remove_all(hdr);
   fs::create_directory_symlink(elsewhere, hdr);
 
-  const Status merged = merge_session_hdr(session.value(), {.force = true});
+  HdrMergeOptions force;
+  force.force = true;
+  const auto merged = merge_session_hdr(session.value(), force);
   ASSERT_FALSE(merged) << "merged through the planted hdr link";
   EXPECT_NE(merged.error().message.find(hdr.string()), std::string::npos) << merged.error().message;
   EXPECT_TRUE(fs::is_empty(elsewhere)) << "EXRs were written into the link's target";
@@ -35,7 +37,9 @@ TEST(SessionLinks, ALinkAtAnHdrFileIsRefusedAndKept) {
   fs::remove(planted);
   fs::create_symlink(target, planted);
 
-  EXPECT_FALSE(merge_session_hdr(session.value(), {.force = true}));
+  HdrMergeOptions force;
+  force.force = true;
+  EXPECT_FALSE(merge_session_hdr(session.value(), force));
   EXPECT_TRUE(fs::is_symlink(planted));
   EXPECT_FALSE(fs::exists(fs::symlink_status(target)));
 }

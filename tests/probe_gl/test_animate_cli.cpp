@@ -329,7 +329,8 @@ TEST_F(AnimateCli, DiffuseSphereBrightnessTracksTheExactIrradianceWithoutFlicker
 }
 
 TEST_F(AnimateCli, WritesAnMp4WhenFfmpegIsOnPath) {
-  if (!on_path("ffmpeg") || !on_path("ffprobe")) GTEST_SKIP() << "ffmpeg/ffprobe not on PATH: no MP4 to check";
+  if (!on_path("ffmpeg") || !on_path("ffprobe"))
+    GTEST_SKIP() << "ffmpeg/ffprobe not on PATH (scripts/setup installs them): no MP4 to check";
   const fs::path mp4 = frames() / "animation.mp4";
   ASSERT_TRUE(fs::exists(mp4)) << run_->out;
   const ProcessRun probe = vdrig::test::run_shell(

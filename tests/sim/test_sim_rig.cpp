@@ -5,9 +5,12 @@
 #include "vdrig/rig/motion.hpp"
 
 #include <chrono>
+#include <fstream>
 
+#include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::sim {
 namespace {
@@ -88,6 +91,55 @@ TEST(SimStage, MovesTakeScaledTrapezoidTimeAndReadBack) {
   EXPECT_GE(th, 0.14);
   EXPECT_EQ(r.stage->position()->pan_rad, 0.0);
   EXPECT_EQ(r.stage->position()->tilt_rad, 0.0);
+}
+
+// `vdrig rig check --self-test` on the simulator: moves that take time_scale x their profile time are what the
+// simulator promises, not a drive that ignored its speeds. Unscaled, a 5 deg move (0.58 s of profile) taking 0.03 s
+// (time_scale 0.05) or none (0) failed as "much faster than the configured profile".
+TEST(SimStage, SelfTestPassesAtTheConfiguredTimeScale) {
+  for (const double time_scale : {0.0, 0.05}) {
+    rig::Rig r = make(small_sim({{"time_scale", time_scale}}));
+    EXPECT_EQ(r.stage->wall_time_scale(), time_scale);
+    const auto steps = rig::run_self_test(r);
+    ASSERT_FALSE(steps.empty());
+    for (const auto& step : steps)
+      EXPECT_TRUE(step.passed) << "time_scale " << time_scale << ", " << step.name << ": " << step.detail;
+  }
+}
+
+// With "state_file" the simulated stage keeps its position between rigs built from the config (between `vdrig rig
+// move` and `vdrig rig position`), as a real drive does; without it every rig starts at 0, 0.
+TEST(SimStage, KeepsItsPositionInTheStateFileAcrossRigs) {
+  const vdrig::test::TempDir dir("sim_state");
+  const std::string state = (dir.path() / "stage.json").string();
+  const PanTilt target{deg_to_rad(10), deg_to_rad(20)};
+  {
+    rig::Rig first = make(small_sim({{"state_file", state}}));
+    EXPECT_EQ(first.stage->position()->pan_rad, 0.0) << "no state file yet: the stage starts at 0, 0";
+    ASSERT_TRUE(first.stage->move_to(target));
+  }
+  {
+    rig::Rig second = make(small_sim({{"state_file", state}}));
+    EXPECT_NEAR(second.stage->position()->pan_rad, target.pan_rad, 1e-12);
+    EXPECT_NEAR(second.stage->position()->tilt_rad, target.tilt_rad, 1e-12);
+    ASSERT_TRUE(second.stage->home());
+  }
+  {
+    rig::Rig third = make(small_sim({{"state_file", state}}));
+    EXPECT_EQ(third.stage->position()->pan_rad, 0.0);
+    EXPECT_EQ(third.stage->position()->tilt_rad, 0.0);
+    ASSERT_TRUE(third.stage->move_to(target));
+  }
+  rig::Rig without = make(small_sim());
+  EXPECT_EQ(without.stage->position()->pan_rad, 0.0) << "no state_file: nothing is kept";
+
+  // A damaged state file is an error naming it, not a stage silently at 0, 0.
+  { std::ofstream(state, std::ios::trunc) << "{\"pan_deg\": "; }
+  rig::BackendRegistry registry;
+  register_backends(registry);
+  auto refused = registry.make_rig(sim_rig_config(small_sim({{"state_file", state}})));
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find(state), std::string::npos) << refused.error().message;
 }
 
 TEST(SimStage, TargetsOutsideTheLimitsAreErrorsNotClamps) {

@@ -149,12 +149,14 @@ std::optional<Vec2d> ViewerController::take_pick_request() {
 
 std::string ViewerController::title() const {
   char buf[300];
-  const std::string model = model_count() > 1 ? model_names_[model_] + " (" + std::to_string(model_ + 1) + "/" +
-                                                    std::to_string(model_count()) + ")"
+  // Numbers from 0, as the console and the command line count views and maps (docs/conventions.md): "map 1 of
+  // 0..2" is the map `--map 1` shows, "captured view 47 of 0..187" the view `--view 47` and `vdrig compare` name.
+  const std::string model = model_count() > 1 ? model_names_[model_] + " (map " + std::to_string(model_) + " of 0.." +
+                                                    std::to_string(model_count() - 1) + ")"
                                               : model_names_[model_];
   if (camera_.mode() == ViewCamera::Mode::kConstrained)
-    std::snprintf(buf, sizeof buf, "vdrig view - %s - captured view %d/%d - gamma %.3g", model.c_str(),
-                  camera_.current_view() + 1, camera_.captured_count(), gamma_);
+    std::snprintf(buf, sizeof buf, "vdrig view - %s - captured view %d of 0..%d - gamma %.3g", model.c_str(),
+                  camera_.current_view(), camera_.captured_count() - 1, gamma_);
   else
     std::snprintf(buf, sizeof buf, "vdrig view - %s - free (azimuth %.0f, zenith %.0f deg, %.0f mm) - gamma %.3g",
                   model.c_str(), rad_to_deg(camera_.azimuth_rad()), rad_to_deg(camera_.zenith_rad()),

@@ -59,6 +59,10 @@ struct SamplingScheme {
 };
 
 /// Parses and validates a spec (grammar above). kInvalidArgument with the offending component and the reason.
+/// The scheme `vdrig capture`, vdrigd's "start" and `vdrig demo` use when none is given (docs/conventions.md, "One
+/// meaning per flag"): one default everywhere.
+inline constexpr const char* kDefaultScheme = "latlong:8";
+
 Result<SamplingScheme> parse_scheme(std::string_view spec);
 
 /// Canonical spec text of a scheme (parse_scheme(to_spec(s)) gives back s up to float printing).

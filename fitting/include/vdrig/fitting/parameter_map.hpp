@@ -8,7 +8,8 @@
 //   attributes (ReflectanceModel::write_attributes), vdrig.surface_width_mm, vdrig.surface_height_mm,
 //   vdrig.parameter_map_version, vdrig.source_session, vdrig.held_out_views (the observation-map views left out of
 //   the fit, on which holdout.R/G/B were measured, comma-separated, when any; fit_map.hpp), vdrig.command (the
-//   command that made the map, when a command did: vdrig fit, vdrig demo).
+//   command that made the map, when a command did: vdrig fit, vdrig demo), vdrig.fit_seconds (a number: the fit's
+//   wall time, kFitSecondsAttribute, when the command measured it; `vdrig report` shows it).
 // Texel (s, t) is pixel (x = s, y = t) of the image, so row 0 holds the texels at the smallest y.
 #pragma once
 
@@ -24,6 +25,8 @@
 namespace vdrig::fitting {
 
 inline constexpr int kParameterMapFormatVersion = 1;
+/// Number attribute: the wall time of the fit that made the map, seconds (vdrig fit, vdrig demo).
+inline constexpr const char* kFitSecondsAttribute = "vdrig.fit_seconds";
 
 class ParameterMap {
  public:

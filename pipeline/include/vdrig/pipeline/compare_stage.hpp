@@ -79,9 +79,20 @@ struct CompareReport {
 /// session, never view 0 (the normal view): views * k / (N + 1) for k = 1..N.
 std::vector<int> spread_holdout_views(int views, int count);
 
+/// As above, but only among usable views: a view v with unusable[v] (excluded by the calibration, incomplete: its
+/// observations are not in the fit anyway, so holding it out would test nothing) is replaced by the nearest usable
+/// view not yet picked (v + 1, v - 1, v + 2, ...), never view 0. Fewer than `count` when too few views are usable.
+/// `unusable` may be shorter than `views` (missing entries are usable).
+std::vector<int> spread_holdout_views(int views, int count, const std::vector<bool>& unusable);
+
 /// The views held out of a map's fit (its "vdrig.held_out_views" attribute, fitting/fit_map.hpp); kNotFound when the
 /// map records none.
 Result<std::vector<int>> held_out_views(const fitting::ParameterMap& map);
+
+/// The views every one of `maps` held out of its fit (`vdrig compare --holdout`): kInvalidArgument naming the map when
+/// one was fitted without --holdout (it saw every view: comparing it there would measure the fit, not a prediction)
+/// or held out other views than the first map.
+Result<std::vector<int>> common_held_out_views(const std::vector<std::filesystem::path>& maps);
 
 /// The Table 16.1 statistics of |a - b| (CV_8UC3 each) over the non-zero pixels of `mask` (CV_8UC1).
 DifferenceStats difference_stats(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask);

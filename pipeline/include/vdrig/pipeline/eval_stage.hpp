@@ -11,6 +11,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -28,6 +29,8 @@ struct EvalOptions {
   /// A session whose views' directions are evaluated too (the view centres as the stage measured them, seen from
   /// each texel); empty = none.
   std::filesystem::path session_dir;
+  /// Called as texel rows finish (from worker threads, one call at a time): texels done of the map's total.
+  std::function<void(long texels_done, long texels_total)> on_progress;
 };
 
 /// Mean and 95th percentile of the texels' relative RMS.
@@ -63,6 +66,9 @@ struct EvalReport {
   int dense_directions = 0;
   int session_views = 0;                // 0 without a session
   std::vector<MaterialEval> materials;  // materials with at least one texel, in the scene's order
+  /// What makes the figures doubtful, for the user: the map was fitted from (or evaluated over) a session captured
+  /// from another scene than the one it is evaluated against (the errors then measure the scenes' difference).
+  std::vector<std::string> warnings;
   /// One float channel per texel: "rel_rms" (dense), "rel_rms.session" (with a session) and "material" (the scene
   /// material index at the texel centre; -1 outside the surface, -2 on a texel that touches several materials).
   ExrImage error_map;
@@ -81,7 +87,8 @@ double texel_relative_rms(const fitting::ParameterMap& map, int s, int t, const 
                           const std::vector<Vec3d>& directions);
 
 /// Evaluates `map` against `scene` (kInvalidArgument when the map's surface size differs from the scene's; session
-/// errors as capture::Session::open).
+/// errors as capture::Session::open). The sessions the map names (its vdrig.source_session) and options.session_dir
+/// are checked against `scene`: a simulated session of another scene is a warning in the report.
 Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Scene& scene, const EvalOptions& options);
 
 }  // namespace vdrig::pipeline

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/fit_map.hpp"
@@ -37,7 +38,10 @@ double default_smoothing(const fitting::ReflectanceModel& model);
 /// spread_holdout_views). kInvalidArgument naming the option: an unknown model, residual or window, threads or
 /// holdout out of range, an option the model does not read (--residual relative on SH/HSH/PTM, --smoothing on PTM,
 /// --lobe-support on a model without lobes: "does not apply to").
-Result<fitting::MapFitOptions> fit_options_for(const FitRequest& request, int session_views);
+/// `unusable` (per view, may be empty): views whose observations the fit does not get (excluded by the calibration,
+/// incomplete); held-out views are chosen among the others, and too few of them for --holdout is kInvalidArgument.
+Result<fitting::MapFitOptions> fit_options_for(const FitRequest& request, int session_views,
+                                               const std::vector<bool>& unusable = {});
 
 /// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
 /// checked before the fit, which can take hours, rather than when the map is written.

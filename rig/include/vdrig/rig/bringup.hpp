@@ -59,9 +59,10 @@ struct SelfTestStep {
 /// exposure until saturated); the light on and off when there is one. Stops at the first failed motion step (later
 /// steps would only repeat it). Leaves the stage at its home position when it can.
 /// A move that takes less than half its profile time minus 20 ms, or more than three times it plus 1 s, fails: the
-/// drive then got other numbers than sent. So a stage whose moves are instant (a stand-in, an emulator) passes only
-/// when its spec says so (very high speed and acceleration), which the route planner, timing routes with the same
-/// spec, needs anyway.
+/// drive then got other numbers than sent. The profile time is scaled by PanTiltStage::wall_time_scale (the
+/// simulator's time_scale: its moves are meant to be faster). Any other stage whose moves are instant (a stand-in, an
+/// emulator) passes only when its spec says so (very high speed and acceleration), which the route planner, timing
+/// routes with the same spec, needs anyway.
 std::vector<SelfTestStep> run_self_test(Rig& rig, const SelfTestOptions& options = {});
 
 }  // namespace vdrig::rig

@@ -20,6 +20,9 @@ class PanTiltStage {
   virtual ~PanTiltStage() = default;
   virtual std::string backend() const = 0;
   virtual StageSpec spec() const = 0;
+  /// Wall-clock seconds a move takes per second of its speed profile (spec()): 1 for a real drive; a simulated stage
+  /// runs faster (its time_scale, 0 = instant). The self-test times moves against the profile scaled by it.
+  virtual double wall_time_scale() const { return 1.0; }
   /// Drives both axes to their reference (limit/index) and sets the position to zero.
   virtual Status home() = 0;
   /// Moves both axes at once and returns when both are in position (or with kTimeout / kDevice).

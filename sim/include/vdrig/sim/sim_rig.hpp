@@ -8,6 +8,8 @@
 //     "pan_zero_deg": 0, "tilt_zero_deg": 0, "pan_axis_tilt_deg": [0, 0] (an imperfect rig, rig/kinematics.hpp: the
 //     stage reports encoder readings, the platform turns by the true angles), "samples_per_axis": 2,
 //     "time_scale": 0 (0 = moves take no wall time, 1 = real time), "seed": 1,
+//     "state_file": "" (a file where the stage keeps its position between processes, as a real drive does; empty:
+//                       every rig built from the config starts at 0, 0),
 //     "camera": { "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 319.5, "cy": 239.5,
 //                 "k1": -0.08, "k2": 0.02, "p1": 0, "p2": 0, "k3": 0, "bits": 8,
 //                 "response": "s-curve" | "linear", "full_well_e": 20000, "read_noise_e": 8, "vignetting": 0 },
@@ -65,6 +67,10 @@ struct SimConfig {
   SimFaults faults;
   int samples_per_axis = 2;
   double time_scale = 0.0;
+  /// Where the simulated stage keeps its position and homed flag between processes (JSON, written atomically after
+  /// every move and home, read when the rig is built), as a real drive's encoders keep theirs: `vdrig rig move` and
+  /// then `vdrig rig position` read the same position. Empty: not kept, each built rig starts at 0, 0.
+  std::string state_file;
 
   SimConfig();
   /// Reads the "sim" section; unknown keys are rejected so a typo does not silently fall back to a default.
