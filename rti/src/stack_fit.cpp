@@ -293,6 +293,11 @@ Result<fitting::ParameterMap> fit_stack(const fs::path& stack, const StackFitOpt
     cv::Size size;
     Result<std::unique_ptr<RowSource>> src = make_error(ErrorCode::kInternal, "");
     if (v > 0 && crop.width == 0) crop = cv::Rect(0, 0, first.width, first.height);
+    if (is_jpeg(path) && options.linearisation.kind == Linearisation::Kind::kCurve &&
+        options.linearisation.curve.bits() != 8)
+      return make_error(ErrorCode::kInvalidArgument, path.string() + ": an 8-bit image and a " +
+                                                         std::to_string(options.linearisation.curve.bits()) +
+                                                         "-bit response");
     if (is_jpeg(path)) src = JpegRows::open(path, crop, &tables8, &size);
     if (!is_jpeg(path) || (!src && src.error().message.ends_with("progressive JPEG")))
       src = DecodedRows::open(path, crop, options.linearisation, &size);
