@@ -12,6 +12,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "fit_support.hpp"
 #include "synthetic_stack.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/hsh.hpp"
@@ -81,16 +82,7 @@ class RtiExport : public ::testing::Test {
     ASSERT_TRUE(imported) << imported.error().describe();
   }
 
-  fitting::ParameterMap fit(const std::string& model) {
-    auto reader = fitting::ObsMapReader::open(dir_ / "map.vdobs");
-    EXPECT_TRUE(reader);
-    fitting::MapFitOptions options;
-    options.model = fitting::parse_model(model).value();
-    options.threads = 2;
-    auto map = fitting::fit_parameter_map(reader.value(), options);
-    EXPECT_TRUE(map) << map.error().describe();
-    return std::move(map.value());
-  }
+  fitting::ParameterMap fit(const std::string& model) { return test::fit_imported_stack(dir_ / "map.vdobs", model); }
 
   /// Compares the reconstruction from a file (`file_code(s, t, l, bound)` in 8-bit codes, with its quantisation
   /// bound) with the unquantised fit, over every texel and every light plus a few off-grid directions.

@@ -6,6 +6,7 @@
 
 #include <fstream>
 
+#include "fit_support.hpp"
 #include "synthetic_stack.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/rti/export.hpp"
@@ -28,16 +29,7 @@ class FittedFiles : public ::testing::Test {
     ASSERT_TRUE(imported) << imported.error().describe();
   }
 
-  fitting::ParameterMap fit(const std::string& model) {
-    auto reader = fitting::ObsMapReader::open(dir_ / "map.vdobs");
-    EXPECT_TRUE(reader);
-    fitting::MapFitOptions options;
-    options.model = fitting::parse_model(model).value();
-    options.threads = 2;
-    auto map = fitting::fit_parameter_map(reader.value(), options);
-    EXPECT_TRUE(map) << map.error().describe();
-    return std::move(map.value());
-  }
+  fitting::ParameterMap fit(const std::string& model) { return test::fit_imported_stack(dir_ / "map.vdobs", model); }
 
   /// Largest |read - original| in 8-bit codes over every texel at every light of the stack.
   double round_trip_error(const fitting::ParameterMap& original, const fitting::ParameterMap& read) {

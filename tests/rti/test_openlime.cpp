@@ -8,6 +8,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
+#include "fit_support.hpp"
 #include "synthetic_stack.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/fit_map.hpp"
@@ -118,16 +119,7 @@ class OpenLime : public ::testing::Test {
     ASSERT_TRUE(write_file_atomic(dir_ / "page.html", page_html()));
   }
 
-  fitting::ParameterMap fit(const std::string& model) {
-    auto reader = fitting::ObsMapReader::open(dir_ / "stack.vdobs");
-    EXPECT_TRUE(reader);
-    fitting::MapFitOptions options;
-    options.model = fitting::parse_model(model).value();
-    options.threads = 2;
-    auto map = fitting::fit_parameter_map(reader.value(), options);
-    EXPECT_TRUE(map) << map.error().describe();
-    return std::move(map.value());
-  }
+  fitting::ParameterMap fit(const std::string& model) { return test::fit_imported_stack(dir_ / "stack.vdobs", model); }
 
   /// Mean and largest |OpenLIME - vdrig| in 8-bit codes over every pixel, channel and light, `folder` being the
   /// relight export of `map` in dir_. Fails the test when OpenLIME draws nothing or reports an error.

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
 
+#include "fit_support.hpp"
 #include "synthetic_stack.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/rti/export.hpp"
@@ -49,16 +50,7 @@ class RelightPeer : public ::testing::Test {
     ASSERT_TRUE(imported) << imported.error().describe();
   }
 
-  fitting::ParameterMap fit(const std::string& model) {
-    auto reader = fitting::ObsMapReader::open(dir_ / "stack.vdobs");
-    EXPECT_TRUE(reader);
-    fitting::MapFitOptions options;
-    options.model = fitting::parse_model(model).value();
-    options.threads = 2;
-    auto map = fitting::fit_parameter_map(reader.value(), options);
-    EXPECT_TRUE(map) << map.error().describe();
-    return std::move(map.value());
-  }
+  fitting::ParameterMap fit(const std::string& model) { return test::fit_imported_stack(dir_ / "stack.vdobs", model); }
 
   test::ProcessRun relight(const std::vector<std::string>& args) {
     std::vector<std::string> argv = {relight_};
