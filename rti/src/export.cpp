@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "jpeg_444.hpp"
+#include "relight_layout.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/hsh.hpp"
@@ -23,10 +24,6 @@ namespace fs = std::filesystem;
 using fitting::ParameterMap;
 
 constexpr double kCodes = 255.0;
-
-/// Relight's PTM term k is vdrig's PTM coefficient kRelightPtmOrder[k] (1, x, y, x^2, xy, y^2 against vdrig's
-/// x^2, y^2, xy, x, y, 1).
-constexpr int kRelightPtmOrder[6] = {5, 3, 4, 0, 2, 1};
 
 /// Range of a set of values, widened when empty so that scale is never 0.
 struct Range {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "relight_layout.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
@@ -23,9 +24,6 @@ using fitting::ParameterMap;
 
 constexpr int kMaxSide = 16384;
 constexpr size_t kMaxFileBytes = size_t{4} << 30;
-/// vdrig's PTM coefficient kFromRelightPtm[k] is relight's term k (relight: 1, x, y, x^2, xy, y^2; vdrig: x^2, y^2,
-/// xy, x, y, 1). The inverse of export.cpp's kRelightPtmOrder.
-constexpr int kRelightPtmOrder[6] = {5, 3, 4, 0, 2, 1};
 
 Error corrupt(const fs::path& path, const std::string& what) {
   return make_error(ErrorCode::kCorrupt, path.string() + ": " + what);
