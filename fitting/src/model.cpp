@@ -1,6 +1,7 @@
 #include "vdrig/fitting/model.hpp"
 
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/ggx_model.hpp"
 #include "vdrig/fitting/harmonic_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
@@ -12,6 +13,7 @@ void register_builtin_models(ModelRegistry& registry) {
   register_phong_model(registry);
   register_harmonic_models(registry);
   register_ptm_model(registry);
+  register_ggx_model(registry);
 }
 
 void ReflectanceModel::write_attributes(std::map<std::string, double>&) const {}

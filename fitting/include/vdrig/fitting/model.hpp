@@ -232,7 +232,7 @@ class ModelRegistry {
   std::vector<Entry> entries_;
 };
 
-/// Adds the models vdrig ships (phong, sh-zh, sh-lsop, sh-ls, hsh, ptm) to `registry`.
+/// Adds the models vdrig ships (phong, sh-zh, sh-lsop, sh-ls, hsh, ptm, ggx) to `registry`.
 void register_builtin_models(ModelRegistry& registry);
 
 /// The process-wide registry holding the built-in models (built on first use; thread-safe).

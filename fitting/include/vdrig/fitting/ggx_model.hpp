@@ -1,0 +1,94 @@
+// The GGX microfacet BRDF model ("ggx:iso"): per texel a Lambertian albedo, a Fresnel reflectance at normal incidence
+// and a roughness, fitted under the session's light. Unlike the view-only models (Phong lobes, SH, HSH, PTM: the
+// radiance toward v under the session's fixed lighting), its parameters are a material: GgxModel::brdf gives its
+// reflectance for any light and view, which is what an exported material (pipeline/gltf_export.hpp) carries.
+//
+// The BRDF (docs/models.md, "BRDF models"), the simulator's GGX material (sim/ggx.hpp) and glTF 2.0's specular term:
+//   f(l, v)  = albedo / pi + F(v . h) D(h) G2(l, v) / (4 lz vz),   h = (l + v) / |l + v|, zero for lz <= 0 or vz <= 0
+//   D(h)     = alpha^2 / (pi (hz^2 (alpha^2 - 1) + 1)^2)             (Trowbridge-Reitz)
+//   Lambda(w)= (sqrt(1 + alpha^2 (wx^2 + wy^2) / wz^2) - 1) / 2,  G2 = 1 / (1 + Lambda(l) + Lambda(v))  (height-
+//              correlated Smith)
+//   F(c)     = f0 + (1 - f0) (1 - c)^5                               (Schlick, per RGB channel)
+//   alpha    = roughness^2                                           (glTF's perceptual roughness)
+// in the surface frame (normal +z). The radiance a texel sends toward v under a point light is
+//   L(v) = E (albedo + pi f_spec(l, v)) = pi E f(l, v),   E = I cos(theta_l) / d^2
+// with I the light's intensity in the simulator's relative units (a light of intensity I lights a white Lambertian
+// surface facing it at d metres to radiance I / d^2), so that a simulated GGX material of kd, f0 and alpha has
+// albedo = kd, the same f0 and roughness = sqrt(alpha).
+//
+// Channels: albedo.R/G/B, f0.R/G/B, roughness (the material), then light.x/y/z (the unit direction toward the
+// session's light at the texel, surface frame) and E.R/G/B (its irradiance there, as above): the fit stores the
+// light per texel so that evaluate() (the radiance under the session's light, as for every model) and the viewer
+// render the map as the session saw it. A texel fitted from too few observations is all zeros (black).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "vdrig/core/geometry.hpp"
+#include "vdrig/fitting/model.hpp"
+
+namespace vdrig::fitting {
+
+/// The session's light as a BRDF fit needs it: one point light fixed to the platform.
+struct SessionLight {
+  Vec3d position_m = Vec3d(0, 0, 1);  // surface frame (origin at the sample's centre, z up), metres
+  Vec3d intensity = Vec3d::Ones();    // RGB, relative units: radiance I / d^2 on a white Lambertian facing it, d in m
+
+  /// The unit direction toward the light from surface point p_m (metres, z = 0) and the irradiance E there
+  /// (I cos / d^2, zero when the light is at or below the horizon).
+  void at(const Vec3d& p_m, Vec3d* direction, Vec3d* irradiance) const;
+  /// "point X Y Z I_R I_G I_B" (metres), the map's vdrig.session_light attribute.
+  std::string describe() const;
+  /// The problem with the light ("intensity is negative"), or "".
+  std::string check() const;
+};
+
+/// The fit options of the GGX model (fit_map.hpp's MapFitOptions::model_options).
+struct GgxFitOptions {
+  std::optional<SessionLight> light;  // required to fit (`vdrig fit --light X,Y,Z[,I]` or `--light-scene SCENE`)
+  int max_iterations = 100;           // bounded Levenberg-Marquardt iterations per texel
+
+  std::string fingerprint() const;
+};
+
+/// A texel's material (the first seven parameters).
+struct GgxMaterial {
+  Vec3d albedo = Vec3d::Zero();
+  Vec3d f0 = Vec3d::Zero();
+  double roughness = 0.0;  // glTF's perceptual roughness; alpha = roughness^2
+};
+
+class GgxModel : public ReflectanceModel {
+ public:
+  static constexpr int kMaterialParameters = 7;  // albedo RGB, f0 RGB, roughness
+  static constexpr double kMinRoughness = 0.03;  // the fit's lower bound (alpha 9e-4); evaluation clamps to it too
+
+  std::string family() const override { return "ggx"; }
+  std::string name() const override { return "ggx:iso"; }
+  std::vector<std::string> channels() const override;
+  Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
+  std::string check_parameters(std::span<const double> parameters) const override;
+  bool has_diffuse_part() const override { return true; }
+  Vec3d diffuse_part(std::span<const double> parameters) const override;  // E albedo
+  std::vector<LobeSummary> lobes(std::span<const double> parameters) const override;
+  std::vector<double> sample_parameters(unsigned seed) const override;
+  std::string glsl(const std::function<std::string(int parameter)>& parameter) const override;
+  Status check_options(const MapFitOptions& options) const override;
+  std::string options_fingerprint(const MapFitOptions& options) const override;
+  Result<ParameterMap> fit_map(const MapFitContext& context) const override;
+  /// Refused: the fit depends on the texel's position on the sample (the light's direction), which the per-texel tile
+  /// jobs do not keep.
+  Result<std::unique_ptr<ModelTiledFit>> tiled_fit(const MapFitOptions& options,
+                                                   const ObservationMapSpec& spec) const override;
+
+  /// A texel's material from its parameters.
+  static GgxMaterial material(std::span<const double> parameters);
+  /// The BRDF f(l, v) (1/sr, per RGB channel) of a material for unit l and v (surface frame), as above.
+  static Vec3d brdf(const GgxMaterial& material, const Vec3d& l, const Vec3d& v);
+};
+
+/// Registers the "ggx" family (ggx:iso).
+void register_ggx_model(ModelRegistry& registry);
+
+}  // namespace vdrig::fitting
