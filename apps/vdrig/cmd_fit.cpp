@@ -41,7 +41,8 @@ struct FitArgs {
   std::string window = "none";
   std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
   int threads = 0;
-  bool mpi = false;  // one rank of `mpirun -n N vdrig fit ... --mpi` (cluster/, docs/scale.md)
+  std::string light, light_scene;  // BRDF models: the session's point light (pipeline::FitRequest)
+  bool mpi = false;                // one rank of `mpirun -n N vdrig fit ... --mpi` (cluster/, docs/scale.md)
 };
 
 /// The command line that asks for this fit (recorded in the map, shown by `vdrig report`).
@@ -55,6 +56,8 @@ std::string fit_command(const FitArgs& a) {
   if (a.lobe_support != fitting::PhongFitOptions{}.lobe_support)
     cmd += " --lobe-support " + std::to_string(a.lobe_support);
   if (a.all_lobes) cmd += " --all-lobes";
+  if (!a.light.empty()) cmd += " --light " + a.light;
+  if (!a.light_scene.empty()) cmd += " --light-scene " + a.light_scene;
   if (a.mpi) cmd += " --mpi";
   if (a.smoothing) cmd += " --smoothing " + fmt::format("{:g}", *a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
@@ -76,6 +79,8 @@ pipeline::FitRequest fit_request(const FitArgs& a) {
   r.smoothing = a.smoothing;
   r.window = a.window;
   r.threads = a.threads;
+  r.light = a.light;
+  r.light_scene = a.light_scene;
   return r;
 }
 
@@ -239,6 +244,11 @@ const CommandRegistrar kFit([](CLI::App& root) {
   cmd->add_option("--window", args->window, "SH-ZH/HSH: ringing window after the fit: none | hanning | lanczos")
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}));
+  cmd->add_option(
+      "--light", args->light,
+      "BRDF models (ggx): the session's point light X,Y,Z[,I] (surface frame, metres; I relative, default 1)");
+  cmd->add_option("--light-scene", args->light_scene,
+                  "BRDF models (ggx): take the light from the simulated scene the session was captured from");
   cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")
       ->check(CLI::ExistingFile);
   cmd->add_option("--threads", args->threads,

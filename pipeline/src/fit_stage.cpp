@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <vector>
@@ -69,6 +71,23 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
         o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
       }))
     return refuse("--smoothing");
+  // The session light (BRDF models): from the command line or the simulated scene.
+  if (!r.light.empty() && !r.light_scene.empty())
+    return make_error(ErrorCode::kInvalidArgument, "--light and --light-scene: give one of the two");
+  if (!r.light.empty() || !r.light_scene.empty()) {
+    Result<fitting::SessionLight> light = make_error(ErrorCode::kInvalidArgument, "no light");
+    if (!r.light.empty()) {
+      light = parse_session_light(r.light);
+    } else {
+      auto scene = sim::make_scene(r.light_scene);
+      if (!scene) return scene.error();
+      light = session_light_of(scene.value());
+    }
+    if (!light) return light.error();
+    options->model_options.edit<fitting::GgxFitOptions>().light = light.value();
+    if (!applies([](fitting::MapFitOptions& o) { o.model_options.edit<fitting::GgxFitOptions>().light.reset(); }))
+      return refuse(r.light.empty() ? "--light-scene" : "--light");
+  }
   if (window != fitting::RingingWindow::kNone && !applies([](fitting::MapFitOptions& o) {
         o.model_options.edit<fitting::ShFitOptions>().window = fitting::RingingWindow::kNone;
         o.model_options.edit<fitting::HshFitOptions>().window = fitting::RingingWindow::kNone;
@@ -78,6 +97,41 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
 }
 
 }  // namespace
+
+Result<fitting::SessionLight> parse_session_light(const std::string& text) {
+  std::vector<double> values;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    char* end = nullptr;
+    const double v = item.empty() ? 0.0 : std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v))
+      return make_error(ErrorCode::kInvalidArgument, "--light \"" + text + "\": \"" + item + "\" is not a number");
+    values.push_back(v);
+    start = comma + 1;
+  }
+  if (values.size() != 3 && values.size() != 4)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--light \"" + text + "\": expected X,Y,Z or X,Y,Z,I (surface frame, metres)");
+  fitting::SessionLight light;
+  light.position_m = Vec3d(values[0], values[1], values[2]);
+  if (values.size() == 4) light.intensity = Vec3d::Constant(values[3]);
+  if (const std::string why = light.check(); !why.empty())
+    return make_error(ErrorCode::kInvalidArgument, "--light \"" + text + "\": " + why);
+  return light;
+}
+
+Result<fitting::SessionLight> session_light_of(const sim::Scene& scene) {
+  if (scene.lights.size() != 1 || !scene.area_lights.empty() || scene.ambient.maxCoeff() > 0)
+    return make_error(ErrorCode::kInvalidArgument, "scene " + scene.name +
+                                                       " is not lit by exactly one point light (a BRDF fit takes "
+                                                       "one point light)");
+  fitting::SessionLight light;
+  light.position_m = scene.lights.front().position_mm / 1000.0;
+  light.intensity = scene.lights.front().intensity * 1e-6;  // I / d_mm^2 = (I 1e-6) / d_m^2
+  return light;
+}
 
 Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_views,
                                                const std::vector<bool>& unusable) {

@@ -11,8 +11,10 @@
 
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/ggx_model.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong.hpp"
+#include "vdrig/sim/scene.hpp"
 
 namespace vdrig::pipeline {
 
@@ -27,7 +29,19 @@ struct FitRequest {
   std::optional<double> smoothing;  // SH/HSH Laplacian penalty; unset: default_smoothing(model)
   std::string window = "none";      // SH-ZH/HSH ringing window: none | hanning | lanczos
   int threads = 0;                  // 0: all cores
+  /// BRDF models (ggx): the session's point light, "X,Y,Z" or "X,Y,Z,I" (surface frame, metres; I relative, default
+  /// 1), or the single point light of a simulated scene (a built-in name or FILE.json); at most one of the two.
+  std::string light;
+  std::string light_scene;
 };
+
+/// The session light of `text` ("X,Y,Z" or "X,Y,Z,I": surface frame, metres; I default 1); kInvalidArgument with the
+/// reason.
+Result<fitting::SessionLight> parse_session_light(const std::string& text);
+/// The session light of a simulated scene: its one point light, position in metres and intensity rescaled so that
+/// E = I cos / d^2 with d in metres gives the simulator's irradiance (sim/scene.hpp measures d in mm).
+/// kInvalidArgument for a scene lit otherwise (several lights, an area light, ambient light).
+Result<fitting::SessionLight> session_light_of(const sim::Scene& scene);
 
 /// The Laplacian penalty of a basis fit when none is asked for: least-squares SH and HSH ring between the views
 /// without it (sh-ls:6 on the demo session: 21.8 % dense against 10.0 % at the views on glossy plastic; with 1e-4,
