@@ -1,0 +1,157 @@
+#include "vdrig/pipeline/gltf_export.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "vdrig/core/file_write.hpp"
+#include "vdrig/core/image_io.hpp"
+#include "vdrig/fitting/ggx_model.hpp"
+
+namespace vdrig::pipeline {
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+namespace {
+
+constexpr double kDielectricF0 = 0.04;  // glTF's F0 of a dielectric (ior 1.5)
+
+/// Linear [0, 1] to the sRGB transfer curve (IEC 61966-2-1), 8 bit.
+uint8_t srgb_code(double linear) {
+  const double x = std::clamp(linear, 0.0, 1.0);
+  const double e = x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+  return static_cast<uint8_t>(std::lround(255.0 * e));
+}
+
+uint8_t linear_code(double x) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(x, 0.0, 1.0))); }
+
+void append_floats(std::string& bytes, std::initializer_list<float> values) {
+  for (float v : values) {
+    char b[4];
+    std::memcpy(b, &v, 4);  // glTF buffers are little-endian, as every platform vdrig builds on
+    bytes.append(b, 4);
+  }
+}
+
+}  // namespace
+
+Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name) {
+  if (!dynamic_cast<const fitting::GgxModel*>(&map.model()))
+    return make_error(ErrorCode::kInvalidArgument,
+                      "model " + map.model().name() +
+                          " is view-only (the radiance toward each view under the session's light, not a "
+                          "material): glTF carries a BRDF; fit the session with a BRDF model (vdrig fit --model "
+                          "ggx:iso --light X,Y,Z) and export that map");
+  // The name makes file names and glTF URIs: plain characters only, so that no file lands outside DIR.
+  if (name.empty() || name.front() == '.' ||
+      name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "export name \"" + name + "\": letters, digits, '.', '_' and '-' only, not starting with '.'");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
+
+  const int S = map.texels_s(), T = map.texels_t();
+  GltfExport result;
+  // Image row y is texel row t = y (texel (0, 0) at the surface's smallest x and y), which glTF's UV (0, 0), the
+  // image's first row, addresses: no flip.
+  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3);
+  double f0_max = 0.0;
+  bool f0_dielectric = true;
+  for (int t = 0; t < T; ++t)
+    for (int s = 0; s < S; ++s) {
+      const fitting::GgxMaterial m = fitting::GgxModel::material(map.parameters(s, t));
+      f0_max = std::max(f0_max, m.f0.maxCoeff());
+      f0_dielectric = f0_dielectric && (m.f0.array() - kDielectricF0).abs().maxCoeff() <= kF0Tolerance;
+      if (m.albedo.maxCoeff() > 1.0) ++result.clipped_texels;
+      // OpenCV's order is BGR.
+      base.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(m.albedo.z()), srgb_code(m.albedo.y()), srgb_code(m.albedo.x()));
+      mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(m.roughness), 0);  // B metallic 0, G roughness, R unused
+    }
+  result.specular_extension = !f0_dielectric && f0_max > 0.0;
+  if (result.specular_extension)
+    for (int t = 0; t < T; ++t)
+      for (int s = 0; s < S; ++s) {
+        const Vec3d f0 = fitting::GgxModel::material(map.parameters(s, t)).f0 / f0_max;
+        spec.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(f0.z()), srgb_code(f0.y()), srgb_code(f0.x()));
+      }
+
+  // The quad: surface (x, y) at glTF (x, 0, -y), metres; counter-clockwise seen from +Y (its normal).
+  const float w = static_cast<float>(map.width_mm() / 1000.0), h = static_cast<float>(map.height_mm() / 1000.0);
+  std::string bin;
+  append_floats(bin, {-w / 2, 0, h / 2, w / 2, 0, h / 2, w / 2, 0, -h / 2, -w / 2, 0, -h / 2});  // POSITION
+  append_floats(bin, {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0});                                      // NORMAL
+  append_floats(bin, {0, 0, 1, 0, 1, 1, 0, 1});                                                  // TEXCOORD_0
+  for (uint16_t i : {0, 1, 2, 0, 2, 3}) bin.append(reinterpret_cast<const char*>(&i), 2);        // 140 bytes in all
+
+  const std::string bin_name = name + ".bin", base_name = name + "_basecolor.png",
+                    mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png";
+  Json gltf;
+  gltf["asset"] = {{"version", "2.0"}, {"generator", "vdrig export"}};
+  if (result.specular_extension) gltf["extensionsUsed"] = {"KHR_materials_specular"};
+  gltf["scene"] = 0;
+  gltf["scenes"] = Json::array({{{"nodes", {0}}}});
+  gltf["nodes"] = Json::array({{{"mesh", 0}, {"name", name}}});
+  gltf["meshes"] =
+      Json::array({{{"name", name},
+                    {"primitives", Json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}}},
+                                                 {"indices", 3},
+                                                 {"material", 0}}})}}});
+  gltf["buffers"] = Json::array({{{"uri", bin_name}, {"byteLength", bin.size()}}});
+  // One buffer view per accessor (several accessors in one view would need a byteStride).
+  gltf["bufferViews"] = Json::array({
+      {{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}, {"target", 34962}},    // ARRAY_BUFFER
+      {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 48}, {"target", 34962}},   //
+      {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 32}, {"target", 34962}},   //
+      {{"buffer", 0}, {"byteOffset", 128}, {"byteLength", 12}, {"target", 34963}},  // ELEMENT_ARRAY_BUFFER
+  });
+  gltf["accessors"] = Json::array({
+      {{"bufferView", 0},
+       {"componentType", 5126},
+       {"count", 4},
+       {"type", "VEC3"},
+       {"min", {-w / 2, 0.0f, -h / 2}},
+       {"max", {w / 2, 0.0f, h / 2}}},
+      {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},
+      {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
+      {{"bufferView", 3}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
+  });
+  // Texels are samples of the surface: linear filtering, clamped at the sample's edges.
+  gltf["samplers"] = Json::array({{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}});
+  Json images = Json::array({{{"uri", base_name}}, {{"uri", mr_name}}});
+  Json textures = Json::array({{{"sampler", 0}, {"source", 0}}, {{"sampler", 0}, {"source", 1}}});
+  Json material = {{"name", name},
+                   {"pbrMetallicRoughness",
+                    {{"baseColorTexture", {{"index", 0}}},
+                     {"metallicFactor", 0.0},
+                     {"roughnessFactor", 1.0},
+                     {"metallicRoughnessTexture", {{"index", 1}}}}}};
+  if (result.specular_extension) {
+    images.push_back({{"uri", spec_name}});
+    textures.push_back({{"sampler", 0}, {"source", 2}});
+    const double k = f0_max / kDielectricF0;
+    material["extensions"] = {
+        {"KHR_materials_specular",
+         {{"specularFactor", 1.0}, {"specularColorFactor", {k, k, k}}, {"specularColorTexture", {{"index", 2}}}}}};
+  }
+  gltf["images"] = images;
+  gltf["textures"] = textures;
+  gltf["materials"] = Json::array({material});
+
+  result.gltf = dir / (name + ".gltf");
+  VDRIG_TRY(write_file_atomic(dir / bin_name, bin));
+  VDRIG_TRY(write_png(dir / base_name, base));
+  VDRIG_TRY(write_png(dir / mr_name, mr));
+  result.written = {dir / bin_name, dir / base_name, dir / mr_name};
+  if (result.specular_extension) {
+    VDRIG_TRY(write_png(dir / spec_name, spec));
+    result.written.push_back(dir / spec_name);
+  }
+  VDRIG_TRY(write_file_atomic(result.gltf, gltf.dump(1) + "\n"));
+  result.written.push_back(result.gltf);
+  return result;
+}
+
+}  // namespace vdrig::pipeline
