@@ -44,6 +44,19 @@ double specular_factor(const Vec3d& l, const Vec3d& v, const Vec3d& h, double r,
   return s;
 }
 
+/// The smallest roughness the views identify (docs/models.md, "BRDF models"): the highlight may not be narrower than
+/// the sampling sees, or a fit puts an unobserved spike at the mirror direction (a Lambertian texel seen from 17 views
+/// got one thousands of times brighter than the truth between them). As Phong's support rule (b): the observation
+/// whose half vector is nearest the normal (angle theta) sees at least half the peak of D, D(h) / D(n) =
+/// alpha^4 / (alpha^2 cos^2 theta + sin^2 theta)^2 >= 1/2, i.e. alpha >= sin theta / sqrt(sqrt2 - cos^2 theta).
+double ggx_supported_roughness(const std::vector<Vec3d>& half) {
+  double cos_max = 0.0;
+  for (const Vec3d& h : half) cos_max = std::max(cos_max, std::min(h.z(), 1.0));
+  const double sin2 = 1.0 - cos_max * cos_max;
+  const double alpha = std::sqrt(sin2 / (std::sqrt(2.0) - cos_max * cos_max));
+  return std::clamp(std::sqrt(alpha), GgxModel::kMinRoughness, 1.0);
+}
+
 /// One texel's observations, with what does not depend on the parameters computed once.
 struct GgxTexelData {
   Vec3d light = Vec3d::UnitZ();
@@ -99,9 +112,10 @@ std::array<double, GgxModel::kMaterialParameters> fit_texel(const GgxTexelData& 
   std::array<double, GgxModel::kMaterialParameters> best{};
   const size_t n = d.view.size();
   if (d.irradiance.maxCoeff() <= 0.0 || n == 0) return best;  // unlit: nothing to measure the material by
+  const double r_min = ggx_supported_roughness(d.half);
   double best_cost = std::numeric_limits<double>::infinity();
   std::vector<double> s(n);
-  for (double r = GgxModel::kMinRoughness; r <= 1.0 + 1e-9; r *= 1.25) {
+  for (double r = r_min; r <= 1.0 + 1e-9; r *= 1.25) {
     for (size_t i = 0; i < n; ++i) s[i] = specular_factor(d.light, d.view[i], d.half[i], r, nullptr);
     std::array<double, GgxModel::kMaterialParameters> p{};
     p[6] = std::min(r, 1.0);
@@ -133,7 +147,7 @@ std::array<double, GgxModel::kMaterialParameters> fit_texel(const GgxTexelData& 
   GgxTexelCost cost{&d};
   GgxTexelCost::Vec p = Eigen::Map<const GgxTexelCost::Vec>(best.data());
   GgxTexelCost::Vec lo, hi;
-  lo << 0, 0, 0, 0, 0, 0, GgxModel::kMinRoughness;
+  lo << 0, 0, 0, 0, 0, 0, r_min;
   const double inf = std::numeric_limits<double>::infinity();
   hi << inf, inf, inf, 1, 1, 1, 1;
   double final_cost = 0;

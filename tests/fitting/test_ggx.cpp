@@ -98,16 +98,22 @@ struct Case {
   const char* name;
   Vec3d kd, f0;
   double alpha;
-  double albedo_tol, f0_tol, alpha_tol;  // worst relative error over the texels (albedo: relative to max(kd, 0.05))
+  // Bounds (about 1.5x the measured) on the worst relative error over the texels (albedo: relative to max(kd, 0.05))
+  // and on the mean dense relative RMS.
+  double albedo_tol, f0_tol, alpha_tol, dense_tol;
 };
 
 TEST(GgxModel, RecoversTheSimulatorsMaterialsUnderSensorNoise) {
   // The GGX table's metal-like material (docs/results.md, section 7) at its three roughnesses, and a dielectric.
+  // Measured (seed 1): metal 0.10: albedo 35 %, f0 1.2 %, alpha 0.41 %, dense 0.58 % (Phong-auto 17.4 %); metal
+  // 0.25: 12.8 %, 0.63 %, 0.21 %, 0.24 % (13.8 %); metal 0.50: 7.2 %, 0.77 %, 0.24 %, 0.16 % (7.4 %); plastic:
+  // 0.49 %, 1.7 %, 0.57 %, 0.16 % (7.3 %). The metal's albedo (0.05) is its weakest term: at alpha 0.10 the diffuse
+  // radiance is 1/700 of the highlight, a third of a code at the exposure that puts the highlight at 220.
   const Case cases[] = {
-      {"metal alpha 0.10", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.10, 0.15, 0.03, 0.03},
-      {"metal alpha 0.25", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.25, 0.15, 0.03, 0.03},
-      {"metal alpha 0.50", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.50, 0.15, 0.03, 0.03},
-      {"plastic alpha 0.15", Vec3d(0.6, 0.25, 0.1), Vec3d::Constant(0.04), 0.15, 0.03, 0.05, 0.03},
+      {"metal alpha 0.10", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.10, 0.5, 0.018, 0.006, 0.009},
+      {"metal alpha 0.25", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.25, 0.2, 0.01, 0.0035, 0.0036},
+      {"metal alpha 0.50", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.50, 0.11, 0.012, 0.0036, 0.0025},
+      {"plastic alpha 0.15", Vec3d(0.6, 0.25, 0.1), Vec3d::Constant(0.04), 0.15, 0.008, 0.025, 0.0085, 0.0025},
   };
   const int S = 4;
   for (const Case& c : cases) {
@@ -143,8 +149,50 @@ TEST(GgxModel, RecoversTheSimulatorsMaterialsUnderSensorNoise) {
     EXPECT_LT(albedo, c.albedo_tol);
     EXPECT_LT(f0, c.f0_tol);
     EXPECT_LT(alpha, c.alpha_tol);
-    EXPECT_LT(ggx_err, 0.2 * phong_err);
+    EXPECT_LT(ggx_err, c.dense_tol);
+    EXPECT_LT(ggx_err, 0.05 * phong_err);
   }
+}
+
+TEST(GgxModel, SparseViewsGetNoHighlightBetweenThem) {
+  // A Lambertian surface seen from 17 views (icosahedron:1, ~30 deg apart) through the 8-bit camera: without the
+  // sampling's bound on the roughness the fit put an unobserved spike at the mirror direction (a demo session's paper:
+  // 4419 % mean dense error; with it, 2.0 %). Measured here: worst texel 3.55 % dense relative RMS, at most 38 %
+  // brighter than the truth in any direction (without the bound: 2358 % and 131800 %). What remains is a broad lobe at
+  // the sampling's bound fitted to noise, which 17 views cannot tell from none.
+  sim::Scene scene = sim::make_scene("bands").value();
+  scene.materials = {sim::Material{"matte", Vec3d(0.5, 0.4, 0.3)}};
+  scene.patches.clear();
+  scene.markers.clear();
+  const std::vector<Vec3d> views = scheme_directions("icosahedron:1");
+  const int S = 4;
+  ObservationMap obs({S, S, scene.width_mm, scene.height_mm}, static_cast<int>(views.size()));
+  for (int t = 0; t < S; ++t)
+    for (int s = 0; s < S; ++s) {
+      TexelObservations texel =
+          observe_texel(scene, texel_centre_mm(s, t, S, S, scene.width_mm, scene.height_mm), views);
+      sim::record_texel(texel.radiance, {}, 77u + static_cast<unsigned>(t * S + s));
+      for (size_t v = 0; v < texel.size(); ++v)
+        obs.set(s, t, static_cast<int>(v), texel.radiance[v], texel.direction[v], kObsValid);
+    }
+  MapFitOptions options;
+  options.model = parse_model("ggx:iso").value();
+  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
+  auto map = fit_parameter_map(obs, options);
+  ASSERT_TRUE(map) << map.error().describe();
+  double worst = 0, brightest = 0;
+  static const std::vector<Vec3d> dense = fibonacci_hemisphere(1000);
+  for (int t = 0; t < S; ++t)
+    for (int s = 0; s < S; ++s) {
+      worst = std::max(worst, dense_relative_rms(*map, s, t, scene));
+      const Vec3d p = texel_centre_mm(s, t, S, S, scene.width_mm, scene.height_mm);
+      for (const Vec3d& v : dense)
+        brightest = std::max(brightest, (map->evaluate(s, t, v).array() / scene.radiance(p, v).array() - 1).maxCoeff());
+    }
+  std::printf("matte, icosahedron:1, 8 bits: worst dense relative RMS %.2f %%, at most %.2f %% brighter\n", 100 * worst,
+              100 * brightest);
+  EXPECT_LT(worst, 0.055);
+  EXPECT_LT(brightest, 0.6);
 }
 
 TEST(GgxModel, FitNeedsTheSessionLightAndRefusesTiledFits) {

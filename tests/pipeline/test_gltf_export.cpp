@@ -117,10 +117,10 @@ TEST(GltfExport, WritesTheMaterialOnAQuadOfTheSamplesSize) {
   EXPECT_EQ(material["pbrMetallicRoughness"]["metallicFactor"], 0.0);
   // F0: 0.04 x factor x texture; the texel with F0 0.9 at texture 1.
   const nlohmann::json& specular = material["extensions"]["KHR_materials_specular"];
-  EXPECT_DOUBLE_EQ(specular["specularColorFactor"][0].get<double>(), 0.9 / 0.04);
+  EXPECT_NEAR(specular["specularColorFactor"][0].get<double>(), 0.9 / 0.04, 1e-5);  // F0 stored as float
   const cv::Mat spec = image_of(specular["specularColorTexture"]);
   EXPECT_EQ(spec.at<cv::Vec3b>(2, 3)[2], 255);  // R of texel (3, 2): 0.9 / 0.9
-  EXPECT_EQ(spec.at<cv::Vec3b>(0, 0)[2], 56);   // 0.04 / 0.9 sRGB-encoded
+  EXPECT_EQ(spec.at<cv::Vec3b>(0, 0)[2], 59);   // 0.04 / 0.9 sRGB-encoded
   EXPECT_EQ(gltf["extensionsUsed"][0], "KHR_materials_specular");
 
   bool skipped = false;
@@ -129,6 +129,7 @@ TEST(GltfExport, WritesTheMaterialOnAQuadOfTheSamplesSize) {
   ASSERT_TRUE(report.is_object());
   EXPECT_EQ(report["errors"], 0) << report.dump(1);
   EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  for (const auto& message : report["messages"]) std::printf("  %s\n", message.dump().c_str());
   EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // the buffer and the three images were read
 }
 
@@ -191,8 +192,13 @@ TEST(GgxEval, TheGgxTablesSetupFarBelowPhongAuto) {
     auto report = evaluate_map(*map, scene, {});
     ASSERT_TRUE(report) << report.error().describe();
     const auto& m = report->materials.front();
-    std::printf("alpha %.2f, ggx:iso: dense mean %.4f %%, p95 %.4f %%\n", alpha, 100 * m.dense.mean, 100 * m.dense.p95);
-    EXPECT_LT(m.dense.mean, 0.05 * phong_auto[k]);
+    std::printf("alpha %.2f, ggx:iso: dense mean %.2e %%, p95 %.2e %%\n", alpha, 100 * m.dense.mean, 100 * m.dense.p95);
+    // ggx:iso is the truth's form: measured 9.5e-4 (alpha 0.10: a few texels whose nearest view misses half the
+    // highlight's peak get their roughness held at the sampling's bound), 8.1e-8 and 5.6e-8 (the parameters' float
+    // storage), against Phong-auto's 0.17 .. 0.07.
+    const double bound[] = {1.5e-3, 2e-7, 2e-7};
+    EXPECT_LT(m.dense.mean, bound[k]);
+    EXPECT_LT(m.dense.mean, 0.01 * phong_auto[k]);
     ++k;
   }
 }
