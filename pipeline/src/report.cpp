@@ -403,20 +403,6 @@ std::string calibration_section(const ReportData& d) {
   return section("calibration", "Calibration", body);
 }
 
-/// The mean of channels base.R/G/B of a map image, or an empty Mat when absent.
-cv::Mat rgb_mean(const ExrImage& image, const std::string& base) {
-  cv::Mat sum;
-  for (const char* c : {".R", ".G", ".B"}) {
-    const int i = image.find(base + c);
-    if (i < 0) return {};
-    if (sum.empty())
-      sum = image.channels[i].clone();
-    else
-      sum += image.channels[i];
-  }
-  return sum / 3.0;
-}
-
 /// Channels r, g, b of a map image as one BGR image (CV_32FC3), or an empty Mat when one is absent.
 cv::Mat bgr_of(const ExrImage& image, const std::string& r, const std::string& g, const std::string& b) {
   std::vector<cv::Mat> planes;
@@ -524,12 +510,12 @@ std::string maps_section(const ReportData& d) {
     const std::string parameters = parameter_images(*image, d.options->map_image_px);
     body += (parameters.empty() ? "<p>(no images for this model's parameters)</p>" : parameters) +
             "</div>\n<h4>Fit quality</h4><div class=\"row\">";
-    const cv::Mat rms = rgb_mean(*image, "rms");
+    const cv::Mat rms = rgb_mean_of(*image, "rms.", "");
     if (!rms.empty())
       body += false_colour(rms, "fit residual RMS", d.options->map_image_px,
                            "root mean square of model &#8722; observation over the fitted views, mean of R, G, B",
                            kRadiance);
-    const cv::Mat holdout = rgb_mean(*image, "holdout");
+    const cv::Mat holdout = rgb_mean_of(*image, "holdout.", "");
     if (!holdout.empty())
       body += false_colour(holdout, "held-out RMS", d.options->map_image_px,
                            "root mean square of model &#8722; observation over the held-out views, mean of R, G, B",

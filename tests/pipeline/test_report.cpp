@@ -164,6 +164,7 @@ TEST_F(Report, MapsShowTheirParametersAsImages) {
   const double w = session->manifest().surface_width_mm, h = session->manifest().surface_height_mm;
   fitting::ParameterMap phong(fitting::parse_model("phong:1").value(), 8, 8, w, h);
   fitting::ParameterMap hsh(fitting::parse_model("hsh:2").value(), 8, 8, w, h);
+  fitting::ParameterMap ptm(fitting::parse_model("ptm:rgb").value(), 8, 8, w, h);
   for (int t = 0; t < 8; ++t)
     for (int s = 0; s < 8; ++s) {
       phong.at("kd.R", s, t) = 0.05f * float(s);  // red grows to the right
@@ -175,25 +176,29 @@ TEST_F(Report, MapsShowTheirParametersAsImages) {
       phong.set_holdout_rms(s, t, Vec3d(0.01, 0.012, 0.011) * (1 + s));
       for (const char* c : {"hsh.R.00", "hsh.G.00", "hsh.B.00"}) hsh.at(c, s, t) = 0.3f;
       for (const char* c : {"hsh.R.01", "hsh.G.01", "hsh.B.01"}) hsh.at(c, s, t) = -0.02f * float(s);
+      for (const char* c : {"ptm.R.5", "ptm.G.5", "ptm.B.5"}) ptm.at(c, s, t) = 0.5f;
     }
   fs::create_directories(session->layout().maps_dir());
   ASSERT_TRUE(phong.write(session->layout().parameter_map_file("phong:1")));
   ASSERT_TRUE(hsh.write(session->layout().parameter_map_file("hsh:2")));
+  ASSERT_TRUE(ptm.write(session->layout().parameter_map_file("ptm:rgb")));
 
   auto html = build_report_html(dir_ / "session");
   ASSERT_TRUE(html) << html.error().describe();
   const std::string maps = section_of(*html, "maps");
   std::map<std::string, cv::Mat> by_alt;  // the two maps' "fit residual RMS" share a key
   const auto images = images_of(maps);
-  EXPECT_EQ(images.size(), 5u + 5u) << "phong: kd, ks0, m, rms, held-out rms; hsh: coefficients 0 to 3, rms";
+  EXPECT_EQ(images.size(), 5u + 5u + 4u)
+      << "phong: kd, ks0, m, rms, held-out rms; hsh: coefficients 0 to 3, rms; ptm: terms 5, 3, 4, rms";
   for (const auto& [alt, image] : images) {
     EXPECT_FALSE(image.empty()) << alt << " does not decode";
     if (image.empty()) continue;
     EXPECT_EQ(image.cols, 8) << alt << ": at the map's own resolution (the page scales it)";
     by_alt[alt] = image;
   }
-  for (const char* alt : {"kd", "ks0", "m", "fit residual RMS", "held-out RMS", "HSH coefficient 0",
-                          "HSH coefficient 1", "HSH coefficient 2", "HSH coefficient 3"})
+  for (const char* alt :
+       {"kd", "ks0", "m", "fit residual RMS", "held-out RMS", "HSH coefficient 0", "HSH coefficient 1",
+        "HSH coefficient 2", "HSH coefficient 3", "PTM term 5", "PTM term 3", "PTM term 4"})
     EXPECT_EQ(by_alt.count(alt), 1u) << alt << " in " << maps.substr(0, 3000);
   if (by_alt.count("kd") && by_alt["kd"].type() == CV_8UC3) {
     const cv::Mat& kd = by_alt["kd"];
