@@ -124,7 +124,6 @@ function onEvent(ev) {
     scheduleList();
   } else if (ev.event === 'progress') {
     Object.assign(current, ev);
-    current.state = 'running';
     if (ev.view_finished) scheduleList();
   }
   showState();

@@ -151,7 +151,10 @@ std::shared_ptr<EventQueue> EventRelay::subscribe() {
     return queue;
   }
   if (connected_ >= 0) queue->push(json{{"event", "daemon"}, {"connected", connected_ == 1}}.dump());
-  for (const std::string* line : {&last_status_, &last_state_, &last_progress_})
+  // In the order they came: a progress event replayed after a later state event would undo it on the page.
+  const std::string* first = progress_after_state_ ? &last_state_ : &last_progress_;
+  const std::string* second = progress_after_state_ ? &last_progress_ : &last_state_;
+  for (const std::string* line : {static_cast<const std::string*>(&last_status_), first, second})
     if (!line->empty()) queue->push(*line);
   subscribers_.push_back(queue);
   return queue;
@@ -214,8 +217,8 @@ void EventRelay::loop() {
       const std::string kind = j.value("event", "");
       const std::string text = j.dump();  // re-serialised: one line, whatever spacing the daemon used
       std::lock_guard lock(mutex_);
-      if (kind == "state") last_state_ = text;
-      if (kind == "progress") last_progress_ = text;
+      if (kind == "state") last_state_ = text, progress_after_state_ = false;
+      if (kind == "progress") last_progress_ = text, progress_after_state_ = true;
       for (auto& q : subscribers_) q->push(text);
     }
     if (!linked) logger->debug("event relay: {}", linked.describe());

@@ -51,8 +51,8 @@ class EventRelay {
   void start();
   /// Ends the thread and closes every subscriber's queue.
   void stop();
-  /// A new queue, first holding the last daemon, status, state and progress lines (so a page starts from the present
-  /// state).
+  /// A new queue, first holding the last daemon, status, state and progress lines, the last two in the order they
+  /// came (so a page starts from the present state).
   std::shared_ptr<EventQueue> subscribe();
   void unsubscribe(const std::shared_ptr<EventQueue>& queue);
 
@@ -67,7 +67,8 @@ class EventRelay {
   std::condition_variable wake_;
   bool stopping_ = false;
   int connected_ = -1;                                    // -1: not known yet
-  std::string last_status_, last_state_, last_progress_;  // replayed to a new subscriber, in this order
+  std::string last_status_, last_state_, last_progress_;  // replayed to a new subscriber
+  bool progress_after_state_ = false;                     // which of the last two came last
   std::vector<std::shared_ptr<EventQueue>> subscribers_;
 };
 

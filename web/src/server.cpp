@@ -262,8 +262,9 @@ struct Server::Impl {
             return sink.write(retry.data(), retry.size());
           }
           std::string line;
-          if (!queue->pop(line, std::chrono::seconds(15))) return false;  // the server stops
-          // A comment when nothing happened: keeps proxies and the browser from timing the stream out.
+          if (!queue->pop(line, std::chrono::seconds(5))) return false;  // the server stops
+          // A comment when nothing happened: keeps proxies from timing the stream out, and finds a page that went away
+          // (the write fails) within seconds, so that its worker and stream slot are freed.
           const std::string chunk = line.empty() ? std::string(": idle\n\n") : "data: " + line + "\n\n";
           return sink.write(chunk.data(), chunk.size());
         },
