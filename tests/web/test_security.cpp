@@ -156,7 +156,7 @@ TEST(WebSecurity, AFloodingClientGets429WhileAnotherIsServed) {
   std::atomic<bool> polite_done{false};
   const auto start = std::chrono::steady_clock::now();
   std::thread flood([&] {
-    for (int i = 0; i < 5000 && !polite_done; ++i) {
+    for (int i = 0; i < 5000 && (i < 200 || !polite_done); ++i) {  // through the other client's requests
       const int status = http(c.port(), get).status;
       (status == 200 ? ok : status == 429 ? limited : other) += 1;
     }
@@ -175,7 +175,7 @@ TEST(WebSecurity, AFloodingClientGets429WhileAnotherIsServed) {
   EXPECT_GE(ok, 20) << "the burst";
   // At most the burst and what the rate refilled meanwhile got through; the flood sent far more.
   EXPECT_LE(ok, 20 + 10 * elapsed_s + 2) << "in " << elapsed_s << " s";
-  EXPECT_GE(limited, 50) << "ok " << ok << ", 429 " << limited << " in " << elapsed_s << " s";
+  EXPECT_GT(limited, ok) << "ok " << ok << ", 429 " << limited << " in " << elapsed_s << " s";
   const HttpReply refused = http(c.port(), get);
   if (refused.status == 429) {
     EXPECT_EQ(refused.header("Retry-After"), "1");
