@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates the report screenshots in docs/img/ (docs/report.md, README) from the demo's session:
-#   vdrig demo (when out/demo has no fitted map) -> vdrig compare --holdout -> vdrig report -> headless Chromium.
+#   vdrig demo (when out/demo has no fitted map) -> vdrig calib extrinsics (when it has no calib/views.json: the
+#   report marks the views it excludes) -> vdrig compare --views held-out -> vdrig report -> headless Chromium.
 # VDRIG=path/to/vdrig uses that executable instead of building the release preset.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,6 +19,7 @@ with_display() {
 
 session=out/demo/session
 [ -f "$session/maps/phong:1.exr" ] || with_display "$vdrig" demo --out out/demo
+[ -f "$session/calib/views.json" ] || "$vdrig" calib extrinsics "$session"
 with_display "$vdrig" compare "$session" --maps phong:1 --views held-out
 "$vdrig" report "$session" --out out/demo/report.html --texel 20,100
 ls -l out/demo/report.html
@@ -37,3 +39,4 @@ shot() {  # $1 = section id, $2 = output PNG, $3 = height in pixels
 }
 shot coverage docs/img/report_coverage.png 1000
 shot maps docs/img/report_maps.png 1150
+shot calibration docs/img/report_calibration.png 420

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -54,6 +55,38 @@ std::string scale_label(double value, double lo, double hi) {
   return significant(value, 3);
 }
 
+Ticks nice_ticks(double lo, double hi, int max_ticks) {
+  Ticks ticks;
+  if (!std::isfinite(lo) || !std::isfinite(hi) || !(hi > lo) || max_ticks < 2) {
+    ticks.values = {std::isfinite(lo) ? lo : 0.0};
+    return ticks;
+  }
+  // The smallest step of 1, 2 or 5 x 10^k that fits the range in max_ticks ticks.
+  const double raw = (hi - lo) / (max_ticks - 1);
+  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
+  ticks.step = 10 * decade;
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * decade >= raw * (1 - 1e-9)) {
+      ticks.step = m * decade;
+      break;
+    }
+  const double first = std::ceil(lo / ticks.step - 1e-9);
+  for (double k = first; k * ticks.step <= hi + 1e-9 * ticks.step && ticks.values.size() <= size_t(max_ticks); ++k)
+    ticks.values.push_back(k * ticks.step);
+  return ticks;
+}
+
+std::string tick_label(double value, double step) {
+  if (!std::isfinite(value)) return significant(value);
+  if (!(step > 0) || !std::isfinite(step)) return significant(value, 3);
+  if (std::abs(value) < 1e-6 * step) return "0";
+  if (step < 1e-4) return significant(value, std::max(1, 1 + int(std::floor(std::log10(std::abs(value) / step)))));
+  const int decimals = std::max(0, int(std::ceil(-std::log10(step) - 1e-9)));
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+  return buf;
+}
+
 std::string base64(const std::vector<uchar>& bytes) {
   static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -69,11 +102,16 @@ std::string base64(const std::vector<uchar>& bytes) {
   return out;
 }
 
-std::string img_tag(const cv::Mat& image, const std::string& alt) {
-  std::vector<uchar> png;
-  cv::imencode(".png", image, png);
-  return "<img alt=\"" + escape_html(alt) + "\" width=\"" + std::to_string(image.cols) + "\" height=\"" +
-         std::to_string(image.rows) + "\" src=\"data:image/png;base64," + base64(png) + "\">";
+std::string img_tag(const cv::Mat& image, const std::string& alt, int display_width, int jpeg_quality) {
+  std::vector<uchar> bytes;
+  if (jpeg_quality > 0)
+    cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+  else
+    cv::imencode(".png", image, bytes);
+  const int w = display_width > 0 ? display_width : image.cols;
+  const int h = static_cast<int>(std::lround(double(image.rows) * w / std::max(1, image.cols)));
+  return "<img alt=\"" + escape_html(alt) + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) +
+         "\" src=\"data:image/" + (jpeg_quality > 0 ? "jpeg" : "png") + ";base64," + base64(bytes) + "\">";
 }
 
 std::string missing(const std::string& what) { return "<p class=\"missing\">Missing: " + what + "</p>\n"; }
@@ -96,41 +134,131 @@ std::string viridis(double t) {
 std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped) {
   static int id = 0;
   const std::string gid = "cb" + std::to_string(++id);
+  constexpr double x0 = 8, bar_w = 244;
   std::string svg =
-      "<svg class=\"colourbar\" width=\"260\" height=\"42\" viewBox=\"0 0 260 42\"><defs><linearGradient "
+      "<svg class=\"colourbar\" width=\"260\" height=\"46\" viewBox=\"0 0 260 46\"><defs><linearGradient "
       "id=\"" +
       gid + "\">";
   for (int k = 0; k <= 8; ++k)
     svg += "<stop offset=\"" + number("%.3f", k / 8.0) + "\" stop-color=\"" + viridis(k / 8.0) + "\"/>";
-  svg += "</linearGradient></defs><text x=\"5\" y=\"11\" font-size=\"11\">" + escape_html(label) + "</text>";
-  svg += "<rect x=\"5\" y=\"15\" width=\"250\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
-  svg += "<text x=\"5\" y=\"40\" font-size=\"11\">" + escape_html(scale_label(lo, lo, hi)) + "</text>";
-  svg += "<text x=\"255\" y=\"40\" font-size=\"11\" text-anchor=\"end\">" + std::string(hi_clipped ? "&#8805; " : "") +
-         escape_html(scale_label(hi, lo, hi)) + "</text>";
+  svg += "</linearGradient></defs><text x=\"" + number("%.0f", x0) + "\" y=\"11\" font-size=\"11\">" +
+         escape_html(label) + "</text>";
+  svg += "<rect x=\"" + number("%.0f", x0) + "\" y=\"15\" width=\"" + number("%.0f", bar_w) +
+         "\" height=\"12\" fill=\"url(#" + gid + ")\"/>";
+  const Ticks ticks = nice_ticks(lo, hi, 5);
+  for (double v : ticks.values) {
+    const double x = hi > lo ? x0 + bar_w * (v - lo) / (hi - lo) : x0;
+    const std::string text = tick_label(v, ticks.step);
+    // Labels at the ends are anchored inside the bar's width so they are not cut off.
+    const char* anchor = x < x0 + 12 ? "start" : (x > x0 + bar_w - 12 ? "end" : "middle");
+    svg += "<line class=\"tick\" x1=\"" + number("%.1f", x) + "\" x2=\"" + number("%.1f", x) +
+           "\" y1=\"27\" y2=\"31\" stroke=\"#333\"/><text class=\"tick\" x=\"" + number("%.1f", x) +
+           "\" y=\"43\" font-size=\"10\" text-anchor=\"" + anchor + "\">" + text + "</text>";
+  }
+  // The ends of the scale, when no tick is near them (a capture order from 1 to 188 with ticks at 50, 100, 150), to a
+  // tenth of the step (0 when zero at that precision). The top end of a clipped scale is labelled above the bar.
+  if (hi > lo && ticks.step > 0) {
+    const auto end_label = [&](double v) {
+      const std::string text = tick_label(v, ticks.step / 10);
+      return std::strtod(text.c_str(), nullptr) == 0 ? std::string("0") : text;  // "0.000" is 0
+    };
+    if (ticks.values.front() - lo > 0.2 * (hi - lo))
+      svg += "<text class=\"tick end\" x=\"" + number("%.0f", x0) + "\" y=\"43\" font-size=\"10\">" + end_label(lo) +
+             "</text>";
+    if (!hi_clipped && hi - ticks.values.back() > 0.2 * (hi - lo))
+      svg += "<text class=\"tick end\" x=\"" + number("%.0f", x0 + bar_w) +
+             "\" y=\"43\" font-size=\"10\" text-anchor=\"end\">" + end_label(hi) + "</text>";
+  }
+  if (hi_clipped && hi > lo)  // the top end of the scale is a clipping point, not the maximum
+    svg += "<text x=\"" + number("%.0f", x0 + bar_w) + "\" y=\"11\" font-size=\"10\" text-anchor=\"end\">&#8805; " +
+           escape_html(scale_label(hi, lo, hi)) + " shown as top</text>";
   return svg + "</svg>";
 }
 
-std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width) {
-  cv::Mat finite = plane == plane;  // not NaN
+PlaneRange plane_range(const cv::Mat& plane) {
   std::vector<float> values;
-  for (int y = 0; y < plane.rows; ++y)
-    for (int x = 0; x < plane.cols; ++x)
-      if (finite.at<uint8_t>(y, x)) values.push_back(plane.at<float>(y, x));
-  double lo = 0, hi = 0, max = 0;
-  if (!values.empty()) {
-    std::sort(values.begin(), values.end());
-    lo = values.front(), max = values.back();
-    hi = values[std::min(values.size() - 1, static_cast<size_t>(0.99 * double(values.size())))];
-  }
+  values.reserve(plane.total() * plane.channels());
+  const cv::Mat flat = plane.reshape(1, 1);
+  cv::Mat f;
+  flat.convertTo(f, CV_32F);
+  for (int i = 0; i < f.cols; ++i)
+    if (std::isfinite(f.at<float>(0, i))) values.push_back(f.at<float>(0, i));
+  PlaneRange r;
+  if (values.empty()) return r;
+  std::sort(values.begin(), values.end());
+  r.any = true;
+  r.min = values.front();
+  r.max = values.back();
+  r.p99 = values[std::min(values.size() - 1, static_cast<size_t>(0.99 * double(values.size())))];
+  return r;
+}
+
+namespace {
+
+/// "min 0.012, max 0.34 units" for a caption, to the precision of the range.
+std::string range_text(const PlaneRange& r, const std::string& units) {
+  if (!r.any) return "no finite values";
+  return "range " + scale_label(r.min, r.min, r.max) + " to " + scale_label(r.max, r.min, r.max) +
+         (units.empty() ? "" : " " + units);
+}
+
+/// A plane reduced to at most `width` columns (area average), or itself.
+cv::Mat at_most(const cv::Mat& image, int width) {
+  if (width <= 0 || image.cols <= width) return image;
+  cv::Mat out;
+  cv::resize(image, out, {width, std::max(1, int(std::lround(double(image.rows) * width / image.cols)))}, 0, 0,
+             cv::INTER_AREA);
+  return out;
+}
+
+std::string figure(const std::string& img, const std::string& label, const std::string& what, const std::string& range,
+                   const std::string& bar) {
+  return "<figure class=\"mapimage\">" + img + "<figcaption><b>" + escape_html(label) + "</b>" +
+         (what.empty() ? "" : ": " + what) + "<br>" + range + (bar.empty() ? "" : "<br>" + bar) +
+         "</figcaption></figure>";
+}
+
+}  // namespace
+
+std::string false_colour(const cv::Mat& plane, const std::string& label, int width, const std::string& what,
+                         const std::string& units) {
+  const PlaneRange r = plane_range(plane);
+  const double lo = r.min, hi = r.p99;
+  const cv::Mat small = at_most(plane, width);
+  const cv::Mat finite = small == small;  // not NaN
   cv::Mat scaled;
-  plane.convertTo(scaled, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0.0);
+  small.convertTo(scaled, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0.0);
   cv::Mat colours;
   cv::applyColorMap(scaled, colours, cv::COLORMAP_VIRIDIS);
   colours.setTo(cv::Scalar(128, 128, 128), ~finite);
-  const int factor = std::max(1, (min_width + plane.cols - 1) / plane.cols);
-  cv::resize(colours, colours, {}, factor, factor, cv::INTER_NEAREST);
-  return "<figure>" + img_tag(colours, label) + "<figcaption>" + colour_bar(lo, hi, label, max > hi) +
-         "</figcaption></figure>";
+  return figure(img_tag(colours, label, std::max(width, 1)), label, what, escape_html(range_text(r, units)),
+                colour_bar(lo, hi, units, r.max > hi));
+}
+
+std::string colour_image(const cv::Mat& bgr, const std::string& label, int width, const std::string& what,
+                         const std::string& units) {
+  const PlaneRange r = plane_range(bgr);
+  const double white = r.p99 > 0 ? r.p99 : (r.max > 0 ? r.max : 1.0);
+  const cv::Mat small = at_most(bgr, width);
+  cv::Mat out(small.size(), CV_8UC3);
+  for (int y = 0; y < small.rows; ++y)
+    for (int x = 0; x < small.cols; ++x) {
+      const cv::Vec3f v = small.at<cv::Vec3f>(y, x);
+      cv::Vec3b& o = out.at<cv::Vec3b>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite(v[c])) {
+          o = cv::Vec3b(128, 128, 128);
+          break;
+        }
+        // sRGB encoding of the linear value relative to the white point.
+        const double l = std::clamp(double(v[c]) / white, 0.0, 1.0);
+        const double e = l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1 / 2.4) - 0.055;
+        o[c] = static_cast<uchar>(std::lround(255 * e));
+      }
+    }
+  const std::string range =
+      escape_html(range_text(r, units)) + "; white " + escape_html(significant(white, 3)) + " (99th percentile), sRGB";
+  return figure(img_tag(out, label, std::max(width, 1)), label, what, range, "");
 }
 
 std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<Vec3d>& route, int size_px) {
@@ -173,7 +301,35 @@ std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<
     svg += "<circle cx=\"" + number("%.1f", x) + "\" cy=\"" + number("%.1f", y) + "\" r=\"" +
            number("%.1f", p.radius_px) + "\" fill=\"" + p.fill + "\" stroke=\"" + (p.fill == "none" ? "#888" : "#333") +
            "\" stroke-width=\"0.5\"><title>" + escape_html(p.title) + "</title></circle>";
+    if (p.held_out)  // a ring around the point
+      svg += "<circle class=\"mark-held-out\" cx=\"" + number("%.1f", x) + "\" cy=\"" + number("%.1f", y) + "\" r=\"" +
+             number("%.1f", p.radius_px + 3) + "\" fill=\"none\" stroke=\"" + kHeldOutColour +
+             "\" stroke-width=\"2\"><title>" + escape_html(p.title) + "</title></circle>";
+    if (p.excluded) {  // crossed out
+      const double a = p.radius_px + 2;
+      svg += "<path class=\"mark-excluded\" d=\"M" + number("%.1f", x - a) + " " + number("%.1f", y - a) + "L" +
+             number("%.1f", x + a) + " " + number("%.1f", y + a) + "M" + number("%.1f", x - a) + " " +
+             number("%.1f", y + a) + "L" + number("%.1f", x + a) + " " + number("%.1f", y - a) + "\" stroke=\"" +
+             kExcludedColour + "\" stroke-width=\"1.5\"><title>" + escape_html(p.title) + "</title></path>";
+    }
   }
+  return svg + "</svg>";
+}
+
+std::string polar_legend() {
+  // The symbols as polar_plot draws them, each with its meaning.
+  std::string svg = "<svg class=\"legend\" width=\"520\" height=\"22\" viewBox=\"0 0 520 22\">";
+  svg += "<circle cx=\"10\" cy=\"11\" r=\"4\" fill=\"" + viridis(0.5) +
+         "\" stroke=\"#333\" stroke-width=\"0.5\"/><text x=\"20\" y=\"15\" font-size=\"11\">captured</text>";
+  svg +=
+      "<circle cx=\"90\" cy=\"11\" r=\"4\" fill=\"none\" stroke=\"#888\" stroke-width=\"0.5\"/><text x=\"100\" "
+      "y=\"15\" font-size=\"11\">not captured</text>";
+  svg += "<circle cx=\"195\" cy=\"11\" r=\"4\" fill=\"" + viridis(0.5) +
+         "\" stroke=\"#333\" stroke-width=\"0.5\"/><circle cx=\"195\" cy=\"11\" r=\"7\" fill=\"none\" stroke=\"" +
+         kHeldOutColour + "\" stroke-width=\"2\"/><text x=\"208\" y=\"15\" font-size=\"11\">held out of a fit</text>";
+  svg += "<circle cx=\"320\" cy=\"11\" r=\"4\" fill=\"" + viridis(0.5) +
+         "\" stroke=\"#333\" stroke-width=\"0.5\"/><path d=\"M314 5L326 17M314 17L326 5\" stroke=\"" + kExcludedColour +
+         "\" stroke-width=\"1.5\"/><text x=\"333\" y=\"15\" font-size=\"11\">excluded by the calibration</text>";
   return svg + "</svg>";
 }
 

@@ -27,11 +27,25 @@ std::string with_uncertainty(double value, double sigma);
 /// range (a colour-bar minimum of 2.2e-17 on a 0..0.04 scale is 0).
 std::string scale_label(double value, double lo, double hi);
 
+/// Axis or colour-bar ticks between lo and hi: multiples of a step of 1, 2 or 5 x 10^k, at most `max_ticks` of them
+/// (fewer when the range is narrow), the first at or above lo, the last at or below hi. One tick at lo when the range
+/// is empty or not finite.
+struct Ticks {
+  std::vector<double> values;
+  double step = 0;
+};
+Ticks nice_ticks(double lo, double hi, int max_ticks = 6);
+
+/// A tick's label: `value` with the decimals its step needs ("0.005", "0.01", "25"), 0 for a value that is zero at the
+/// step's scale (no "-0" or "1.7e-18"), scientific for steps below 1e-4 ("2e-05").
+std::string tick_label(double value, double step);
+
 /// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
 std::string base64(const std::vector<uchar>& bytes);
 
-/// An <img> of an 8-bit image (BGR or grey) as an inline PNG.
-std::string img_tag(const cv::Mat& image, const std::string& alt);
+/// An <img> of an 8-bit image (BGR or grey) as an inline PNG (or JPEG with `jpeg_quality` > 0: photographs), shown
+/// `display_width` pixels wide (0: its own width; the page scales it, pixelated).
+std::string img_tag(const cv::Mat& image, const std::string& alt, int display_width = 0, int jpeg_quality = 0);
 
 /// A paragraph saying what is missing from the session, styled as a notice.
 std::string missing(const std::string& what);
@@ -39,23 +53,49 @@ std::string missing(const std::string& what);
 /// Viridis (OpenCV's table) at t in [0, 1], as "#rrggbb".
 std::string viridis(double t);
 
-/// A horizontal colour bar (viridis) from lo to hi, its label above; `hi_clipped`: values above hi are shown as hi.
+/// A horizontal colour bar (viridis) from lo to hi, its label above, tick marks with nice_ticks' values and labels
+/// below; `hi_clipped`: values above hi are shown as hi (the right end says so).
 std::string colour_bar(double lo, double hi, const std::string& label, bool hi_clipped = false);
 
-/// A false-colour image of a float plane (NaN shown grey), scaled up (nearest) to at least min_width, with its bar.
-/// The scale runs from the minimum to the 99th percentile, so that a few outliers do not darken the whole map.
-std::string false_colour(const cv::Mat& plane, const std::string& label, int min_width);
+/// A false-colour image of a float plane (NaN shown grey) at its own resolution, shown `width` pixels wide (a larger
+/// plane is reduced to `width` first), with its colour bar and a caption: `label`, then `what` (markup) and the
+/// plane's range in `units`. The scale runs from the minimum to the 99th percentile, so that a few outliers do not
+/// darken the whole map.
+std::string false_colour(const cv::Mat& plane, const std::string& label, int width, const std::string& what = "",
+                         const std::string& units = "");
+
+/// A colour image of three float planes (B, G, R order, as OpenCV's), linear values divided by a white point (the
+/// 99th percentile of all three; negative values black, NaN grey), sRGB encoded, shown `width` pixels wide, with a
+/// caption: `label`, `what` (markup), the range in `units` and the white point.
+std::string colour_image(const cv::Mat& bgr, const std::string& label, int width, const std::string& what,
+                         const std::string& units);
+
+/// The range of a finite plane, and its 99th percentile (of all channels).
+struct PlaneRange {
+  double min = 0, max = 0, p99 = 0;
+  bool any = false;  // some value is finite
+};
+PlaneRange plane_range(const cv::Mat& plane);
+
+/// The marks of views held out of a fit and views the calibration excluded, in plots and the thumbnail grid.
+inline constexpr const char* kHeldOutColour = "#d62728";
+inline constexpr const char* kExcludedColour = "#111111";
 
 struct PolarPoint {
   Vec3d direction;
   std::string fill;  // "none" for a hollow point
   double radius_px = 4;
   std::string title;
+  bool held_out = false;  // ringed (class "mark-held-out")
+  bool excluded = false;  // crossed out (class "mark-excluded")
 };
 
 /// The upper hemisphere seen from above: radius proportional to the zenith angle (0 at the centre, 90 deg at the rim),
 /// azimuth counter-clockwise from +x (to the right). `route` (may be empty) is drawn as a polyline under the points.
 std::string polar_plot(const std::vector<PolarPoint>& points, const std::vector<Vec3d>& route, int size_px = 360);
+
+/// A legend of polar_plot's symbols: captured, not captured, held out (ringed), excluded (crossed out).
+std::string polar_legend();
 
 /// <section id=...><h2>title</h2>body</section>, the frame of every report section (its id is the nav anchor).
 std::string section(const std::string& id, const std::string& title, const std::string& body);

@@ -23,6 +23,7 @@
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
+#include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::pipeline {
 namespace fs = std::filesystem;
@@ -39,11 +40,84 @@ using html::viridis;
 
 // ---- Sections ----
 
+/// What the report shows of one view's merged HDR image.
+struct ViewHdr {
+  double clipped_fraction = -1.0;  // -1 not merged, -2 unreadable
+  cv::Mat thumbnail;               // tone mapped, 8-bit BGR; empty when not merged
+};
+
 struct ReportData {
   const capture::Session* session = nullptr;
   const ReportOptions* options = nullptr;
-  std::vector<fs::path> map_files;  // SESSION/maps/*.exr, sorted
+  std::vector<fs::path> map_files;      // SESSION/maps/*.exr, sorted
+  std::vector<ViewHdr> hdr;             // per planned view, in manifest order
+  std::map<int, std::string> held_out;  // view -> the maps that held it out of their fit ("phong:1.exr, hsh:6.exr")
+  std::map<int, std::string> excluded;  // view -> why the calibration (calib/views.json) left it out
 };
+
+/// Every merged view read once, in parallel (the slowest part of the report): the share of its pixels clipped in
+/// every exposure, and a thumbnail through the display tone mapping of vdrig compare and the viewer (gamma 1).
+std::vector<ViewHdr> read_view_hdrs(const capture::Session& s, int thumbnail_width_px) {
+  const auto& planned = s.manifest().views;
+  std::vector<ViewHdr> out(planned.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(planned.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const int v = planned[i].index;
+      if (!s.view_complete(v) || !fs::exists(s.layout().hdr_file(v))) continue;
+      auto hdr = calib::read_hdr_exr(s.layout().hdr_file(v));
+      if (!hdr || hdr->mask.empty() || hdr->radiance.empty()) {
+        out[i].clipped_fraction = -2.0;
+        continue;
+      }
+      out[i].clipped_fraction = cv::countNonZero(hdr->mask & calib::kHdrSaturated) / double(hdr->mask.total());
+      if (thumbnail_width_px > 0 && hdr->radiance.type() == CV_32FC3) {
+        cv::Mat small;
+        const double scale = double(thumbnail_width_px) / hdr->radiance.cols;
+        cv::resize(hdr->radiance, small, {}, scale, scale, scale < 1 ? cv::INTER_AREA : cv::INTER_NEAREST);
+        out[i].thumbnail = viewer::tone_map(small, 1.0);
+      }
+    }
+  });
+  return out;
+}
+
+/// The views each map held out of its fit (vdrig.held_out_views), as view -> "map, map".
+std::map<int, std::string> held_out_by_maps(const std::vector<fs::path>& map_files) {
+  std::map<int, std::string> held;
+  for (const fs::path& file : map_files) {
+    auto image = read_exr(file, fitting::ParameterMap::kMaxReadBytes);
+    if (!image) continue;
+    const auto it = image->string_attributes.find("vdrig.held_out_views");
+    if (it == image->string_attributes.end()) continue;
+    const std::string& list = it->second;
+    for (size_t at = 0; at < list.size();) {
+      char* end = nullptr;
+      const long view = std::strtol(list.c_str() + at, &end, 10);
+      if (end == list.c_str() + at) break;  // not a number: the rest is not read
+      std::string& maps = held[static_cast<int>(view)];
+      maps += (maps.empty() ? "" : ", ") + file.filename().string();
+      at = static_cast<size_t>(end - list.c_str());
+      while (at < list.size() && (list[at] == ',' || list[at] == ' ')) ++at;
+    }
+  }
+  return held;
+}
+
+/// The views calib/views.json leaves out of the fit (no pose, or a reprojection error above its threshold) and why;
+/// none when there is no readable calibration.
+std::map<int, std::string> excluded_by_calibration(const capture::SessionLayout& layout) {
+  std::map<int, std::string> excluded;
+  if (!fs::exists(layout.views_file())) return excluded;
+  auto views = calib::read_views_json(layout.views_file());
+  if (!views) return excluded;
+  for (const calib::ViewRecord& v : views->views)
+    if (!v.usable())
+      excluded[v.index] = v.extrinsics ? "marker reprojection error " +
+                                             html::significant(v.extrinsics->reprojection_error_px, 3) + " px > " +
+                                             html::significant(views->max_error_px, 3) + " px"
+                                       : "no pose: " + v.error;
+  return excluded;
+}
 
 /// Views in the order they were captured (by the sequence number of their first journaled frame).
 std::vector<int> capture_order(const capture::Session& session) {
@@ -72,8 +146,12 @@ std::string coverage_section(const ReportData& d) {
     std::string title = "view " + std::to_string(v.index) + ": azimuth " + html::number("%.1f", azimuth_deg) +
                         " deg, zenith " + html::number("%.1f", zenith_deg) + " deg, ";
     title += k >= 0 ? "captured " + std::to_string(k + 1) + "th" : "not captured";
-    points.push_back(
-        {v.direction, k >= 0 ? viridis(order.size() > 1 ? double(k) / (order.size() - 1) : 0.0) : "none", 4.0, title});
+    const auto held = d.held_out.find(v.index);
+    const auto excluded = d.excluded.find(v.index);
+    if (held != d.held_out.end()) title += "; held out of " + held->second;
+    if (excluded != d.excluded.end()) title += "; excluded: " + excluded->second;
+    points.push_back({v.direction, k >= 0 ? viridis(order.size() > 1 ? double(k) / (order.size() - 1) : 0.0) : "none",
+                      4.0, title, held != d.held_out.end(), excluded != d.excluded.end()});
   }
   std::string body = "<p>Scheme <code>" + escape_html(m.scheme) + "</code>: " + std::to_string(order.size()) + " of " +
                      std::to_string(m.views.size()) +
@@ -81,11 +159,48 @@ std::string coverage_section(const ReportData& d) {
                      "from it; the orange line is the planned route, filled points the captured views coloured by "
                      "capture order, hollow points views not captured.</p>\n";
   body += "<figure>" + polar_plot(points, route) + "<figcaption>" +
-          colour_bar(1, std::max<double>(1, order.size()), "capture order") + "</figcaption></figure>\n";
+          colour_bar(1, std::max<double>(1, order.size()), "capture order") + "<br>" + html::polar_legend() + "<br>" +
+          std::to_string(d.held_out.size()) + " views held out of a fit (ringed), " +
+          std::to_string(d.excluded.size()) + " excluded by the calibration (crossed out)</figcaption></figure>\n";
   if (order.size() < m.views.size())
     body += missing(std::to_string(m.views.size() - order.size()) +
                     " planned views are not captured (resume with vdrig capture or vdrigd)");
   return section("coverage", "Coverage of the hemisphere", body);
+}
+
+/// The merged views as small tone-mapped thumbnails (JPEG: photographs), each labelled with its view number; views held
+/// out of a fit framed in red, views the calibration excluded dimmed with a dashed frame.
+std::string thumbnail_grid(const ReportData& d) {
+  const auto& planned = d.session->manifest().views;
+  std::string grid;
+  int shown = 0;
+  for (size_t i = 0; i < planned.size() && i < d.hdr.size(); ++i) {
+    if (d.hdr[i].thumbnail.empty()) continue;
+    const int v = planned[i].index;
+    const auto held = d.held_out.find(v);
+    const auto excluded = d.excluded.find(v);
+    std::string cls = "thumb", title = "view " + std::to_string(v), label = std::to_string(v);
+    if (held != d.held_out.end()) {
+      cls += " held-out";
+      title += ", held out of " + held->second;
+      label += " held out";
+    }
+    if (excluded != d.excluded.end()) {
+      cls += " excluded";
+      title += ", excluded: " + excluded->second;
+      label += " excluded";
+    }
+    grid += "<figure class=\"" + cls + "\" title=\"" + escape_html(title) + "\">" +
+            img_tag(d.hdr[i].thumbnail, "view " + std::to_string(v), 0, 80) + "<figcaption>" + escape_html(label) +
+            "</figcaption></figure>";
+    ++shown;
+  }
+  if (shown == 0) return "";
+  return "<p>The " + std::to_string(shown) +
+         " merged views, tone mapped as vdrig compare shows them (y = 1 &#8722; exp(&#8722;x), sRGB), in view order. "
+         "<span class=\"key held-out\">held out</span> of a fit (" +
+         std::to_string(d.held_out.size()) + "), <span class=\"key excluded\">excluded</span> by the calibration (" +
+         std::to_string(d.excluded.size()) + ").</p>\n<div class=\"thumbs\">" + grid + "</div>\n";
 }
 
 std::string views_section(const ReportData& d) {
@@ -95,20 +210,9 @@ std::string views_section(const ReportData& d) {
     if (t0 == 0 || (f.timestamp_ns > 0 && f.timestamp_ns < t0)) t0 = f.timestamp_ns;
   std::string rows;
   int merged = 0, clipped_views = 0;
-  // The clipped fraction of every merged view, read in parallel (the slowest part of the report): -1 not merged, -2
-  // unreadable.
   const auto& planned = s.manifest().views;
   std::vector<double> clipped_fraction(planned.size(), -1.0);
-  cv::parallel_for_(cv::Range(0, static_cast<int>(planned.size())), [&](const cv::Range& range) {
-    for (int i = range.start; i < range.end; ++i) {
-      const int v = planned[i].index;
-      if (!s.view_complete(v) || !fs::exists(s.layout().hdr_file(v))) continue;
-      auto hdr = calib::read_hdr_exr(s.layout().hdr_file(v));
-      clipped_fraction[i] = hdr && !hdr->mask.empty()
-                                ? cv::countNonZero(hdr->mask & calib::kHdrSaturated) / double(hdr->mask.total())
-                                : -2.0;
-    }
-  });
+  for (size_t i = 0; i < planned.size() && i < d.hdr.size(); ++i) clipped_fraction[i] = d.hdr[i].clipped_fraction;
   for (size_t i = 0; i < planned.size(); ++i) {
     const capture::PlannedView& v = planned[i];
     const auto frames = s.frames_of_view(v.index);
@@ -147,12 +251,102 @@ std::string views_section(const ReportData& d) {
   else
     body += "<p>" + std::to_string(clipped_views) + " of " + std::to_string(merged) +
             " merged views have clipped pixels.</p>\n";
+  body += thumbnail_grid(d);
   body +=
       "<div class=\"scroll\"><table><thead><tr><th>view</th><th>azimuth &#176;</th><th>zenith &#176;</th>"
       "<th>exposures ms</th><th>saturated frames</th><th>clipped %</th><th>start s</th><th>duration s</th>"
       "</tr></thead><tbody>\n" +
       rows + "</tbody></table></div>\n";
   return section("views", "Views: brackets, saturation, capture time", body);
+}
+
+/// Per-view marker reprojection error as bars: the y scale fitted to the errors of the views the calibration kept
+/// (a threshold of 1 px would flatten errors of 0.02 px), its ticks at round values; a bar above the scale (an
+/// excluded view) clipped with a triangle on top; a view without a pose a cross under the axis. View numbers label
+/// the x axis, as many as fit.
+std::string reprojection_chart(const calib::ViewsFile& views) {
+  const int n = static_cast<int>(views.views.size());
+  double kept_max = 0, all_max = 0;
+  int usable = 0, posed = 0;
+  for (const auto& v : views.views)
+    if (v.extrinsics) {
+      ++posed;
+      all_max = std::max(all_max, v.extrinsics->reprojection_error_px);
+      if (v.usable()) ++usable, kept_max = std::max(kept_max, v.extrinsics->reprojection_error_px);
+    }
+  double top = usable > 0 ? kept_max : all_max;
+  if (!(top > 0)) top = views.max_error_px > 0 ? views.max_error_px : 1.0;
+  html::Ticks ticks = html::nice_ticks(0, top, 5);
+  const double y_max = std::ceil(top / ticks.step - 1e-9) * ticks.step;
+  if (ticks.values.empty() || ticks.values.back() < y_max - 1e-9 * y_max) ticks.values.push_back(y_max);
+
+  constexpr double left = 58, right = 12, top_px = 14, plot_h = 150, bottom = 44;
+  const double width = std::clamp(left + right + 24.0 * n, 420.0, 1180.0);  // at most 1180: the page is 1280 wide
+  const double height = top_px + plot_h + bottom;
+  const double bar = (width - left - right) / std::max(1, n);
+  const auto y_of = [&](double e) { return top_px + plot_h * (1 - std::min(e, y_max) / y_max); };
+  const auto f1 = [](double x) { return html::number("%.1f", x); };
+  std::string svg = "<svg class=\"bars\" width=\"" + html::number("%.0f", width) + "\" height=\"" +
+                    html::number("%.0f", height) + "\" viewBox=\"0 0 " + html::number("%.0f", width) + " " +
+                    html::number("%.0f", height) + "\">";
+  // Y axis: grid lines and labels at the ticks, the axis title turned along it.
+  for (double t : ticks.values)
+    svg += "<line x1=\"" + f1(left) + "\" x2=\"" + f1(width - right) + "\" y1=\"" + f1(y_of(t)) + "\" y2=\"" +
+           f1(y_of(t)) + "\" stroke=\"#e4e4e4\"/><text class=\"tick y\" x=\"" + f1(left - 4) + "\" y=\"" +
+           f1(y_of(t) + 3.5) + "\" font-size=\"10\" text-anchor=\"end\">" + html::tick_label(t, ticks.step) + "</text>";
+  svg += "<text x=\"12\" y=\"" + f1(top_px + plot_h / 2) +
+         "\" font-size=\"11\" text-anchor=\"middle\" transform=\"rotate(-90 12 " + f1(top_px + plot_h / 2) +
+         ")\">reprojection error, px</text>";
+  // X axis labels: every k-th view number, k the smallest of 1, 2, 5, 10, ... leaving 22 px per label.
+  int every = 1;
+  for (int k : {1, 2, 5, 10, 20, 50, 100, 200, 500, 1000}) {
+    every = k;
+    if (k * bar >= 22) break;
+  }
+  for (int i = 0; i < n; ++i) {
+    const auto& v = views.views[i];
+    const double x = left + i * bar;
+    const std::string title = "view " + std::to_string(v.index) + ": ";
+    if (v.extrinsics) {
+      const double e = v.extrinsics->reprojection_error_px;
+      svg += "<rect class=\"" + std::string(v.extrinsics->excluded ? "bar excluded" : "bar") + "\" x=\"" + f1(x) +
+             "\" y=\"" + f1(y_of(e)) + "\" width=\"" + html::number("%.2f", std::max(1.0, bar - 1)) + "\" height=\"" +
+             f1(top_px + plot_h - y_of(e)) + "\" fill=\"" + (v.extrinsics->excluded ? "#d04040" : "#4070c0") +
+             "\"><title>" + title + html::significant(e, 3) + " px" + (v.extrinsics->excluded ? " (excluded)" : "") +
+             "</title></rect>";
+      if (e > y_max)  // above the scale: a triangle on the clipped bar
+        svg += "<path class=\"clipped\" d=\"M" + f1(x + bar / 2 - 4) + " " + f1(top_px + 6) + "L" + f1(x + bar / 2) +
+               " " + f1(top_px - 2) + "L" + f1(x + bar / 2 + 4) + " " + f1(top_px + 6) +
+               "Z\" fill=\"#d04040\"><title>" + title + html::significant(e, 3) + " px, above the scale</title></path>";
+    } else {
+      const double cx = x + bar / 2, cy = top_px + plot_h + 5;
+      svg += "<path class=\"no-pose\" d=\"M" + f1(cx - 3) + " " + f1(cy - 3) + "L" + f1(cx + 3) + " " + f1(cy + 3) +
+             "M" + f1(cx - 3) + " " + f1(cy + 3) + "L" + f1(cx + 3) + " " + f1(cy - 3) +
+             "\" stroke=\"#d04040\" stroke-width=\"1.5\"><title>" + title + escape_html(v.error) + "</title></path>";
+    }
+    if (v.index % every == 0)
+      svg += "<text class=\"tick x\" x=\"" + f1(x + bar / 2) + "\" y=\"" + f1(top_px + plot_h + 20) +
+             "\" font-size=\"10\" text-anchor=\"middle\">" + std::to_string(v.index) + "</text>";
+  }
+  svg += "<line x1=\"" + f1(left) + "\" x2=\"" + f1(width - right) + "\" y1=\"" + f1(top_px + plot_h) + "\" y2=\"" +
+         f1(top_px + plot_h) + "\" stroke=\"#333\"/><line x1=\"" + f1(left) + "\" x2=\"" + f1(left) + "\" y1=\"" +
+         f1(top_px) + "\" y2=\"" + f1(top_px + plot_h) + "\" stroke=\"#333\"/>";
+  svg += "<text x=\"" + f1(left + (width - left - right) / 2) + "\" y=\"" + f1(height - 6) +
+         "\" font-size=\"11\" text-anchor=\"middle\">view</text>";
+  const bool threshold_shown = views.max_error_px <= y_max;
+  if (threshold_shown)
+    svg += "<line class=\"threshold\" x1=\"" + f1(left) + "\" x2=\"" + f1(width - right) + "\" y1=\"" +
+           f1(y_of(views.max_error_px)) + "\" y2=\"" + f1(y_of(views.max_error_px)) +
+           "\" stroke=\"#d04040\" stroke-dasharray=\"4 3\"/>";
+  svg += "</svg>";
+  std::string text = "<p>Marker reprojection error per view (RMS over the corner markers, px), " +
+                     std::to_string(usable) + " of " + std::to_string(n) + " views usable, " +
+                     std::to_string(n - posed) + " without a pose (red crosses under the axis). Blue: kept; red: " +
+                     "excluded, its error above the threshold of " + html::significant(views.max_error_px, 3) + " px";
+  text += threshold_shown ? " (dashed line)"
+                          : ", far above this scale (kept views at most " + html::significant(kept_max, 3) + " px)";
+  if (all_max > y_max) text += "; bars above the scale end in a triangle";
+  return text + ".</p>\n<figure class=\"wide\">" + svg + "</figure>\n";
 }
 
 std::string calibration_section(const ReportData& d) {
@@ -189,41 +383,7 @@ std::string calibration_section(const ReportData& d) {
     body += missing("a readable calib/views.json: " + escape_html(views.error().message));
     return section("calibration", "Calibration", body);
   }
-  // Per-view marker reprojection error as bars (views without a pose: red tick).
-  const int n = static_cast<int>(views->views.size());
-  double worst = views->max_error_px;
-  for (const auto& v : views->views)
-    if (v.extrinsics) worst = std::max(worst, v.extrinsics->reprojection_error_px);
-  const int width = std::max(300, std::min(1200, 4 * n + 60)), height = 160;
-  const double bar = (width - 50.0) / std::max(1, n);
-  std::string svg = "<svg class=\"bars\" width=\"" + std::to_string(width) + "\" height=\"" + std::to_string(height) +
-                    "\" viewBox=\"0 0 " + std::to_string(width) + " " + std::to_string(height) + "\">";
-  auto y_of = [&](double e) { return 140 - 130 * e / worst; };
-  int usable = 0;
-  for (int i = 0; i < n; ++i) {
-    const auto& v = views->views[i];
-    const double x = 45 + i * bar;
-    if (v.extrinsics) {
-      const double e = v.extrinsics->reprojection_error_px;
-      usable += v.usable();
-      svg += "<rect x=\"" + html::number("%.1f", x) + "\" y=\"" + html::number("%.1f", y_of(e)) + "\" width=\"" +
-             html::number("%.2f", std::max(1.0, bar - 1)) + "\" height=\"" + html::number("%.1f", 140 - y_of(e)) +
-             "\" fill=\"" + (v.extrinsics->excluded ? "#d04040" : "#4070c0") + "\"><title>view " +
-             std::to_string(v.index) + ": " + html::number("%.3f", e) + " px</title></rect>";
-    } else {
-      svg += "<rect x=\"" + html::number("%.1f", x) + "\" y=\"136\" width=\"" +
-             html::number("%.2f", std::max(1.0, bar - 1)) + "\" height=\"4\" fill=\"#d04040\"><title>view " +
-             std::to_string(v.index) + ": " + escape_html(v.error) + "</title></rect>";
-    }
-  }
-  svg += "<line x1=\"45\" x2=\"" + std::to_string(width - 5) + "\" y1=\"" +
-         html::number("%.1f", y_of(views->max_error_px)) + "\" y2=\"" +
-         html::number("%.1f", y_of(views->max_error_px)) +
-         "\" stroke=\"#d04040\" stroke-dasharray=\"4 3\"/><text x=\"2\" y=\"14\" font-size=\"10\">" +
-         html::number("%.2f", worst) + " px</text><text x=\"2\" y=\"140\" font-size=\"10\">0</text></svg>";
-  body += "<p>Marker reprojection error per view (RMS over the corner markers, px); dashed: the threshold " +
-          html::number("%.2f", views->max_error_px) + " px above which a view is excluded; red: excluded or no pose. " +
-          std::to_string(usable) + " of " + std::to_string(n) + " views usable.</p>\n<figure>" + svg + "</figure>\n";
+  body += reprojection_chart(views.value());
   if (views->kinematics.is_null()) {
     body += missing("the kinematic fit (fewer than two usable views)");
   } else {
@@ -243,18 +403,87 @@ std::string calibration_section(const ReportData& d) {
   return section("calibration", "Calibration", body);
 }
 
-/// The mean of channels base.R/G/B of a map image, or an empty Mat when absent.
-cv::Mat rgb_mean(const ExrImage& image, const std::string& base) {
-  cv::Mat sum;
-  for (const char* c : {".R", ".G", ".B"}) {
-    const int i = image.find(base + c);
+/// Channels r, g, b of a map image as one BGR image (CV_32FC3), or an empty Mat when one is absent.
+cv::Mat bgr_of(const ExrImage& image, const std::string& r, const std::string& g, const std::string& b) {
+  std::vector<cv::Mat> planes;
+  for (const std::string& name : {b, g, r}) {
+    const int i = image.find(name);
     if (i < 0) return {};
-    if (sum.empty())
-      sum = image.channels[i].clone();
-    else
-      sum += image.channels[i];
+    planes.push_back(image.channels[i]);
+  }
+  cv::Mat out;
+  cv::merge(planes, out);
+  return out;
+}
+
+// Map values are in the units of the HDR images the observations came from (linear, relative radiance).
+constexpr const char* kRadiance = "radiance (HDR units)";
+
+/// The mean of channels before + R/G/B + after (e.g. "sh." "R" ".01"), or an empty Mat when one is absent.
+cv::Mat rgb_mean_of(const ExrImage& image, const std::string& before, const std::string& after) {
+  cv::Mat sum;
+  for (const char* c : {"R", "G", "B"}) {
+    const int i = image.find(before + c + after);
+    if (i < 0) return {};
+    sum = sum.empty() ? image.channels[i].clone() : cv::Mat(sum + image.channels[i]);
   }
   return sum / 3.0;
+}
+
+/// Images of a map's parameters, by the channel names of the models (fitting/*_model.cpp): Phong's kd, and ks and m of
+/// every lobe; SH/HSH's coefficient 0 as colour and coefficients 1 to 3 (mean of R, G, B) in false colour; PTM's
+/// constant term as colour and its two linear terms. Channels of a model not known here are not shown.
+std::string parameter_images(const ExrImage& image, int width) {
+  std::string out;
+  const auto colour = [&](const cv::Mat& bgr, const std::string& label, const std::string& what) {
+    if (!bgr.empty()) out += html::colour_image(bgr, label, width, what, kRadiance);
+  };
+  const auto plane = [&](const cv::Mat& values, const std::string& label, const std::string& what,
+                         const std::string& units) {
+    if (!values.empty()) out += false_colour(values, label, width, what, units);
+  };
+  const auto channel = [&](const std::string& name) {
+    const int i = image.find(name);
+    return i < 0 ? cv::Mat() : image.channels[i];
+  };
+  colour(bgr_of(image, "kd.R", "kd.G", "kd.B"), "kd", "diffuse colour (R, G, B)");
+  for (int k = 0; k < 16; ++k) {
+    const std::string n = std::to_string(k);
+    colour(bgr_of(image, "ks" + n + ".R", "ks" + n + ".G", "ks" + n + ".B"), "ks" + n,
+           "specular colour of lobe " + n + " (R, G, B)");
+    plane(channel("m" + n), "m" + n, "shininess of lobe " + n + " (Phong exponent)", "unitless");
+  }
+  plane(channel("m"), "m", "shininess shared by the lobes (Phong exponent)", "unitless");
+  for (const std::string prefix : {"sh.", "hsh."}) {
+    const std::string name = prefix == "sh." ? "SH" : "HSH";
+    colour(bgr_of(image, prefix + "R.00", prefix + "G.00", prefix + "B.00"), name + " coefficient 0",
+           "the constant term (R, G, B)");
+    for (int i = 1; i <= 3; ++i)
+      plane(rgb_mean_of(image, prefix, ".0" + std::to_string(i)), name + " coefficient " + std::to_string(i),
+            "first band, mean of R, G, B", kRadiance);
+  }
+  // PTM terms (ptm_basis): 0 lu^2, 1 lv^2, 2 lu lv, 3 lu, 4 lv, 5 the constant (the radiance toward the normal).
+  colour(bgr_of(image, "ptm.R.5", "ptm.G.5", "ptm.B.5"), "PTM term 5",
+         "the constant term (R, G, B): the radiance toward the normal");
+  if (const cv::Mat luminance = channel("ptm.L.5"), chroma = bgr_of(image, "chroma.R", "chroma.G", "chroma.B");
+      !luminance.empty() && !chroma.empty()) {
+    std::vector<cv::Mat> planes;
+    cv::split(chroma, planes);
+    for (cv::Mat& p : planes) p = p.mul(luminance);
+    cv::Mat c;
+    cv::merge(planes, c);
+    colour(c, "PTM term 5 x chroma", "the luminance's constant term times the chroma: the radiance toward the normal");
+  }
+  for (const auto& [term, axis] : {std::pair{"3", "lu"}, std::pair{"4", "lv"}}) {
+    cv::Mat c = rgb_mean_of(image, "ptm.", std::string(".") + term);
+    const bool lrgb = c.empty();
+    if (lrgb) c = channel(std::string("ptm.L.") + term);
+    plane(
+        c, std::string("PTM term ") + term,
+        std::string("linear in ") + axis + " (the tilt of the radiance)" + (lrgb ? ", luminance" : ", mean of R, G, B"),
+        kRadiance);
+  }
+  return out;
 }
 
 std::string maps_section(const ReportData& d) {
@@ -277,20 +506,30 @@ std::string maps_section(const ReportData& d) {
     };
     body += "<p>Model <code>" + attr("vdrig.model_spec") + "</code>, " + std::to_string(image->width) + "x" +
             std::to_string(image->height) + " texels; held-out views: " + attr("vdrig.held_out_views") +
-            ".</p>\n<div class=\"row\">";
-    const cv::Mat rms = rgb_mean(*image, "rms");
-    if (!rms.empty()) body += false_colour(rms, "fit residual RMS (mean of R, G, B)", d.options->map_image_px);
-    const cv::Mat holdout = rgb_mean(*image, "holdout");
-    if (!holdout.empty()) body += false_colour(holdout, "held-out RMS (mean of R, G, B)", d.options->map_image_px);
+            ".</p>\n<h4>Parameters</h4><div class=\"row\">";
+    const std::string parameters = parameter_images(*image, d.options->map_image_px);
+    body += (parameters.empty() ? "<p>(no images for this model's parameters)</p>" : parameters) +
+            "</div>\n<h4>Fit quality</h4><div class=\"row\">";
+    const cv::Mat rms = rgb_mean_of(*image, "rms.", "");
+    if (!rms.empty())
+      body += false_colour(rms, "fit residual RMS", d.options->map_image_px,
+                           "root mean square of model &#8722; observation over the fitted views, mean of R, G, B",
+                           kRadiance);
+    const cv::Mat holdout = rgb_mean_of(*image, "holdout.", "");
+    if (!holdout.empty())
+      body += false_colour(holdout, "held-out RMS", d.options->map_image_px,
+                           "root mean square of model &#8722; observation over the held-out views, mean of R, G, B",
+                           kRadiance);
     if (const int lobes = image->find("lobes"); lobes >= 0)
-      body += false_colour(image->channels[lobes], "lobes (phong:auto)", d.options->map_image_px);
+      body += false_colour(image->channels[lobes], "lobes", d.options->map_image_px, "lobes the fit chose (phong:auto)",
+                           "lobes");
     // Where the map guesses: lobes whose width the sampling bounds (docs/models.md, "Between the samples").
     int capped_texels = 0;
     if (const int capped = image->find(fitting::kCappedLobesChannel); capped >= 0) {
       capped_texels = cv::countNonZero(image->channels[capped] > 0.0f);
       if (capped_texels > 0)
-        body += false_colour(image->channels[capped], "lobes held at the sampling's bound (m_capped)",
-                             d.options->map_image_px);
+        body += false_colour(image->channels[capped], "m_capped", d.options->map_image_px,
+                             "lobes whose shininess is held at the sampling's bound", "lobes");
     }
     body += "</div>\n";
     if (capped_texels > 0)
@@ -561,7 +800,13 @@ th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
 .wide { max-width: 100%; overflow-x: auto; } /* tables of thumbnails scroll inside the page at any width */
 .missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; } figure { margin: 0.5em 0; } figcaption { font-size: 0.8em; }
-.texel { max-width: 280px; } img { image-rendering: pixelated; }
+.texel { max-width: 280px; } .mapimage { max-width: 262px; }
+.thumbs { display: flex; flex-wrap: wrap; gap: 4px; margin-bottom: 1em; }
+.thumb { margin: 0; padding: 1px; border: 2px solid transparent; text-align: center; }
+.thumb img { display: block; image-rendering: auto; } .thumb figcaption { font-size: 0.7em; }
+.thumb.held-out, .key.held-out { border: 2px solid #d62728; }
+.thumb.excluded, .key.excluded { border: 2px dashed #111; } .thumb.excluded img { opacity: 0.45; }
+.key { padding: 0 3px; } img { image-rendering: pixelated; }
 nav a { margin-right: 1em; }
 )";
 
@@ -581,6 +826,9 @@ Result<std::string> build_report_html(const fs::path& session_dir, const ReportO
     for (const auto& e : fs::directory_iterator(session->layout().maps_dir(), ec))
       if (e.is_regular_file() && e.path().extension() == ".exr") data.map_files.push_back(e.path());
   std::sort(data.map_files.begin(), data.map_files.end());
+  data.hdr = read_view_hdrs(session.value(), options.view_thumbnail_px);
+  data.held_out = held_out_by_maps(data.map_files);
+  data.excluded = excluded_by_calibration(session->layout());
 
   auto compare = compare_section(data);
   if (!compare) return compare.error();

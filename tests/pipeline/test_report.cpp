@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "small_session.hpp"
+#include "vdrig/calib/extrinsics.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
@@ -101,6 +103,220 @@ TEST_F(Report, DashesOnceNumbersReadableTimingsRecorded) {
   EXPECT_TRUE(raw.empty()) << "a raw number: " << raw;
 }
 
+/// The inline images of `html` (data: URIs) with their alt texts, decoded (empty Mat: not decodable).
+std::vector<std::pair<std::string, cv::Mat>> images_of(const std::string& html) {
+  std::vector<std::pair<std::string, cv::Mat>> images;
+  for (size_t at = html.find("<img"); at != std::string::npos; at = html.find("<img", at + 1)) {
+    const std::string tag = html.substr(at, html.find('>', at) - at);
+    const auto alt = tag.find("alt=\""), data = tag.find(";base64,");
+    std::string name = alt == std::string::npos ? "" : tag.substr(alt + 5, tag.find('"', alt + 5) - alt - 5);
+    std::vector<uchar> bytes;
+    if (data != std::string::npos) {
+      // RFC 4648 base64 decoding, '=' padding ends it.
+      uint32_t bits = 0;
+      int count = 0;
+      for (size_t i = data + 8; i < tag.size() && tag[i] != '"' && tag[i] != '='; ++i) {
+        const char c = tag[i];
+        const int v = c >= 'A' && c <= 'Z'   ? c - 'A'
+                      : c >= 'a' && c <= 'z' ? c - 'a' + 26
+                      : c >= '0' && c <= '9' ? c - '0' + 52
+                      : c == '+'             ? 62
+                                             : 63;
+        bits = (bits << 6) | uint32_t(v);
+        if ((count += 6) >= 8) bytes.push_back(uchar((bits >> (count -= 8)) & 0xff));
+      }
+    }
+    images.emplace_back(name, bytes.empty() ? cv::Mat() : cv::imdecode(bytes, cv::IMREAD_UNCHANGED));
+  }
+  return images;
+}
+
+/// The texts of the colour bars' and axes' tick labels (<text class="tick ...">) in `html`; `kind` "x" or "y" keeps
+/// only an axis' own.
+std::vector<std::string> tick_labels(const std::string& html, const std::string& kind = "") {
+  std::vector<std::string> labels;
+  const std::string open = "<text class=\"tick" + (kind.empty() ? "" : " " + kind + "\"");
+  for (size_t at = html.find(open); at != std::string::npos; at = html.find(open, at + 1)) {
+    const auto start = html.find('>', at) + 1;
+    labels.push_back(html.substr(start, html.find("</text>", start) - start));
+  }
+  return labels;
+}
+
+/// A tick label a reader reads at a glance: a plain number of at most 6 characters ("0.005", "12", "-0.4").
+bool readable_tick(const std::string& label) {
+  if (label.empty() || label.size() > 6) return false;
+  size_t used = 0;
+  try {
+    (void)std::stod(label, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return used == label.size() && label.find('e') == std::string::npos;
+}
+
+// Each fitted map shows its parameters as images (Phong: kd, ks and m per lobe; HSH: its first coefficients) beside
+// the fit's quality, at the map's own resolution, each with a caption saying what it is and its range, and colour
+// bars with round tick values.
+TEST_F(Report, MapsShowTheirParametersAsImages) {
+  auto session = test::small_merged_session(dir_ / "session");
+  ASSERT_TRUE(session) << session.error().describe();
+  const double w = session->manifest().surface_width_mm, h = session->manifest().surface_height_mm;
+  fitting::ParameterMap phong(fitting::parse_model("phong:1").value(), 8, 8, w, h);
+  fitting::ParameterMap hsh(fitting::parse_model("hsh:2").value(), 8, 8, w, h);
+  fitting::ParameterMap ptm(fitting::parse_model("ptm:rgb").value(), 8, 8, w, h);
+  for (int t = 0; t < 8; ++t)
+    for (int s = 0; s < 8; ++s) {
+      phong.at("kd.R", s, t) = 0.05f * float(s);  // red grows to the right
+      phong.at("kd.G", s, t) = 0.2f;
+      phong.at("kd.B", s, t) = 0.1f;
+      for (const char* c : {"ks0.R", "ks0.G", "ks0.B"}) phong.at(c, s, t) = 0.4f;
+      phong.at("m", s, t) = 5.0f + float(t);  // shininess grows downwards
+      for (const char* c : {"rms.R", "rms.G", "rms.B"}) phong.at(c, s, t) = 0.0023f * float(s + t);
+      phong.set_holdout_rms(s, t, Vec3d(0.01, 0.012, 0.011) * (1 + s));
+      for (const char* c : {"hsh.R.00", "hsh.G.00", "hsh.B.00"}) hsh.at(c, s, t) = 0.3f;
+      for (const char* c : {"hsh.R.01", "hsh.G.01", "hsh.B.01"}) hsh.at(c, s, t) = -0.02f * float(s);
+      for (const char* c : {"ptm.R.5", "ptm.G.5", "ptm.B.5"}) ptm.at(c, s, t) = 0.5f;
+    }
+  fs::create_directories(session->layout().maps_dir());
+  ASSERT_TRUE(phong.write(session->layout().parameter_map_file("phong:1")));
+  ASSERT_TRUE(hsh.write(session->layout().parameter_map_file("hsh:2")));
+  ASSERT_TRUE(ptm.write(session->layout().parameter_map_file("ptm:rgb")));
+
+  auto html = build_report_html(dir_ / "session");
+  ASSERT_TRUE(html) << html.error().describe();
+  const std::string maps = section_of(*html, "maps");
+  std::map<std::string, cv::Mat> by_alt;  // the two maps' "fit residual RMS" share a key
+  const auto images = images_of(maps);
+  EXPECT_EQ(images.size(), 5u + 5u + 4u)
+      << "phong: kd, ks0, m, rms, held-out rms; hsh: coefficients 0 to 3, rms; ptm: terms 5, 3, 4, rms";
+  for (const auto& [alt, image] : images) {
+    EXPECT_FALSE(image.empty()) << alt << " does not decode";
+    if (image.empty()) continue;
+    EXPECT_EQ(image.cols, 8) << alt << ": at the map's own resolution (the page scales it)";
+    by_alt[alt] = image;
+  }
+  for (const char* alt :
+       {"kd", "ks0", "m", "fit residual RMS", "held-out RMS", "HSH coefficient 0", "HSH coefficient 1",
+        "HSH coefficient 2", "HSH coefficient 3", "PTM term 5", "PTM term 3", "PTM term 4"})
+    EXPECT_EQ(by_alt.count(alt), 1u) << alt << " in " << maps.substr(0, 3000);
+  if (by_alt.count("kd") && by_alt["kd"].type() == CV_8UC3) {
+    const cv::Mat& kd = by_alt["kd"];
+    EXPECT_LT(kd.at<cv::Vec3b>(0, 1)[2] + 40, kd.at<cv::Vec3b>(0, 7)[2]) << "kd.R grows to the right";
+    EXPECT_EQ(kd.at<cv::Vec3b>(0, 1)[1], kd.at<cv::Vec3b>(7, 1)[1]) << "kd.G is uniform";
+  }
+  if (by_alt.count("m")) {  // viridis: dark blue at the low end, yellow at the top
+    const cv::Mat& m = by_alt["m"];
+    EXPECT_LT(m.at<cv::Vec3b>(0, 3)[1] + 100, m.at<cv::Vec3b>(7, 3)[1]) << "m grows downwards";
+  }
+  // Captions say what each image is and its range in units.
+  EXPECT_NE(maps.find("shininess shared by the lobes (Phong exponent)<br>range 5 to 12 unitless"), std::string::npos)
+      << maps;
+  EXPECT_NE(maps.find("diffuse colour (R, G, B)<br>range 0 to 0.35 radiance (HDR units)"), std::string::npos);
+  const std::vector<std::string> ticks = tick_labels(maps);
+  EXPECT_GE(ticks.size(), 2u * by_alt.size() - 4) << "two or more ticks per false-colour image";
+  for (const std::string& label : ticks) EXPECT_TRUE(readable_tick(label)) << "tick label " << label;
+  // The held-out RMS runs from 0.01 to 0.09: ticks 0.02, 0.04, ..., not 0.011 or 0.088.
+  EXPECT_NE(maps.find(">0.02</text>"), std::string::npos);
+  EXPECT_NE(maps.find(">0.08</text>"), std::string::npos);
+}
+
+size_t count_of(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+/// A calib/views.json for `session` (camera.yml not written): every view posed with an error of 0.010 to 0.030 px,
+/// except view `too_far` (1.5 px, excluded at the 1 px threshold) and view `no_pose` (markers not found).
+void write_calibration(const capture::Session& session, int too_far, int no_pose) {
+  calib::ViewsFile file;
+  file.layout = calib::MarkerLayout::corners(session.manifest().surface_width_mm, session.manifest().surface_height_mm);
+  for (const capture::PlannedView& planned : session.manifest().views) {
+    calib::ViewRecord v;
+    v.index = planned.index;
+    if (v.index == no_pose) {
+      v.error = "no dark blob (contrast too low)";
+    } else {
+      calib::ViewExtrinsics e;
+      e.reprojection_error_px = v.index == too_far ? 1.5 : 0.010 + 0.005 * (v.index % 5);
+      e.excluded = e.reprojection_error_px > file.max_error_px;
+      e.markers_px.assign(4, Vec2d(10, 10));
+      v.extrinsics = e;
+    }
+    file.views.push_back(v);
+  }
+  fs::create_directories(session.layout().views_file().parent_path());
+  ASSERT_TRUE(write_views_json(session.layout().views_file(), file));
+}
+
+// The views are shown as a grid of thumbnails labelled with their numbers; views held out of a fit and views the
+// calibration excluded are marked there and on the coverage plot, which has a legend.
+TEST_F(Report, ViewsThumbnailsAndCoverageMarkHeldOutAndExcludedViews) {
+  auto session = test::small_merged_session(dir_ / "session");
+  ASSERT_TRUE(session) << session.error().describe();
+  const int n = static_cast<int>(session->manifest().views.size());
+  ASSERT_GE(n, 5);
+  write_calibration(session.value(), 2, n - 1);
+  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), 8, 8, session->manifest().surface_width_mm,
+                            session->manifest().surface_height_mm);
+  map.image().string_attributes["vdrig.held_out_views"] = "1,3";
+  fs::create_directories(session->layout().maps_dir());
+  ASSERT_TRUE(map.write(session->layout().parameter_map_file("phong:1")));
+
+  auto html = build_report_html(dir_ / "session");
+  ASSERT_TRUE(html) << html.error().describe();
+  const std::string coverage = section_of(*html, "coverage");
+  EXPECT_EQ(count_of(coverage, "class=\"mark-held-out\""), 2u) << "views 1 and 3 ringed";
+  EXPECT_EQ(count_of(coverage, "class=\"mark-excluded\""), 2u) << "views 2 and " << n - 1 << " crossed out";
+  EXPECT_NE(coverage.find("class=\"legend\""), std::string::npos);
+  for (const char* key : {"held out of a fit", "excluded by the calibration", "not captured"})
+    EXPECT_NE(coverage.find(key), std::string::npos) << key;
+
+  const std::string views = section_of(*html, "views");
+  EXPECT_EQ(count_of(views, "<figure class=\"thumb"), size_t(n)) << "one thumbnail per merged view";
+  EXPECT_EQ(count_of(views, "<figure class=\"thumb held-out\""), 2u);
+  EXPECT_EQ(count_of(views, "<figure class=\"thumb excluded\""), 2u);
+  EXPECT_NE(views.find("<figcaption>3 held out</figcaption>"), std::string::npos);
+  EXPECT_NE(views.find("<figcaption>2 excluded</figcaption>"), std::string::npos);
+  EXPECT_NE(views.find("<figcaption>0</figcaption>"), std::string::npos) << "every thumbnail has its view number";
+  const auto thumbnails = images_of(views);
+  ASSERT_EQ(thumbnails.size(), size_t(n));
+  for (const auto& [alt, image] : thumbnails) {
+    ASSERT_FALSE(image.empty()) << alt << " does not decode";
+    EXPECT_EQ(image.cols, 96) << alt;
+    EXPECT_EQ(image.rows, 72) << alt << ": the camera's 4:3";
+    EXPECT_GT(cv::mean(image)[1], 10) << alt << ": the tone-mapped surface, not black";
+  }
+  EXPECT_EQ(thumbnails[3].first, "view 3");
+}
+
+// The calibration chart: one bar per view on a scale fitted to the kept views' errors (hundredths of a pixel, not the
+// 1 px threshold), round tick values with the unit, view numbers under the bars, an excluded view's bar clipped
+// with a mark, a view without a pose crossed under the axis.
+TEST_F(Report, CalibrationChartFitsItsScaleAndLabelsTheViews) {
+  auto session = test::small_merged_session(dir_ / "session");
+  ASSERT_TRUE(session) << session.error().describe();
+  const int n = static_cast<int>(session->manifest().views.size());
+  ASSERT_GE(n, 5);
+  write_calibration(session.value(), 2, n - 1);
+  auto html = build_report_html(dir_ / "session");
+  ASSERT_TRUE(html) << html.error().describe();
+  const std::string calibration = section_of(*html, "calibration");
+  EXPECT_EQ(tick_labels(calibration, "y"), (std::vector<std::string>{"0", "0.01", "0.02", "0.03"})) << calibration;
+  const std::vector<std::string> x = tick_labels(calibration, "x");
+  ASSERT_EQ(x.size(), size_t(n)) << "a few views: each labelled";
+  for (int i = 0; i < n; ++i) EXPECT_EQ(x[i], std::to_string(i));
+  EXPECT_EQ(count_of(calibration, "<rect class=\"bar"), size_t(n - 1)) << "a bar per posed view";
+  EXPECT_EQ(count_of(calibration, "class=\"clipped\""), 1u) << "view 2's 1.5 px bar is above the scale";
+  EXPECT_EQ(count_of(calibration, "class=\"no-pose\""), 1u);
+  EXPECT_EQ(count_of(calibration, "class=\"threshold\""), 0u) << "1 px is far off a 0.03 px scale";
+  EXPECT_NE(calibration.find("far above this scale"), std::string::npos);
+  EXPECT_NE(calibration.find(">reprojection error, px</text>"), std::string::npos);
+  EXPECT_NE(calibration.find(">view</text>"), std::string::npos);
+  EXPECT_NE(calibration.find(std::to_string(n - 2) + " of " + std::to_string(n) + " views usable"), std::string::npos);
+}
+
 TEST_F(Report, DamagedSessionIsAClearError) {
   auto session = test::small_merged_session(dir_ / "session");
   ASSERT_TRUE(session);
@@ -157,7 +373,13 @@ window.addEventListener('load', () => {
   const pre = document.createElement('pre');
   pre.id = 'vdrig-check';
   pre.textContent = JSON.stringify({problems: problems, images: document.images.length,
-                                    svgs: document.querySelectorAll('svg').length});
+                                    svgs: document.querySelectorAll('svg').length,
+                                    thumbnails: [...document.querySelectorAll('figure.thumb img')]
+                                      .filter(i => i.naturalWidth === 96).length,
+                                    held: document.querySelectorAll('figure.thumb.held-out').length,
+                                    rings: document.querySelectorAll('#coverage .mark-held-out').length,
+                                    crosses: document.querySelectorAll('#coverage .mark-excluded').length,
+                                    excluded: document.querySelectorAll('figure.thumb.excluded').length});
   document.body.appendChild(pre);
 });
 </script>)";
@@ -167,6 +389,7 @@ struct BrowserVerdict {
   std::string failure;  // why it did not run
   nlohmann::json problems = nlohmann::json::array();
   int images = 0, svgs = 0;
+  nlohmann::json counts;  // the verdict's other numbers: thumbnails (decoded, 96 px), held, rings, crosses, excluded
   std::string console_lines;  // chromium's log lines of console messages (any level)
 };
 
@@ -218,6 +441,7 @@ BrowserVerdict load_in_browser(const std::string& chromium, const std::string& h
   verdict.problems = result["problems"];
   verdict.images = result["images"].get<int>();
   verdict.svgs = result["svgs"].get<int>();
+  verdict.counts = result;
   // Console messages of any level appear in chromium's log as "CONSOLE" lines; the report has no script of its own.
   std::istringstream lines(run.err);
   for (std::string line; std::getline(lines, line);)
@@ -249,6 +473,8 @@ TEST_F(Report, LoadsInARealBrowserWithoutErrors) {
     GTEST_SKIP() << "no OpenGL display for the comparison: " << compared.error().message;
   ASSERT_TRUE(compared) << compared.error().describe();
 
+  // Written after the fit and the comparison, which would otherwise pose the views with it.
+  write_calibration(session.value(), 2, n - 1);
   ReportOptions options;
   options.texels = {{3, 4}};
   auto html = build_report_html(dir_ / "session", options);
@@ -260,8 +486,13 @@ TEST_F(Report, LoadsInARealBrowserWithoutErrors) {
   const BrowserVerdict verdict = load_in_browser(chromium, html.value(), dir_);
   ASSERT_TRUE(verdict.ran) << verdict.failure;
   EXPECT_TRUE(verdict.problems.empty()) << verdict.problems.dump(2);
-  EXPECT_GE(verdict.images, 4 + 2) << "compare thumbnails and false-colour maps";
+  EXPECT_GE(verdict.images, 4 + 2 + 3 + n) << "compare thumbnails, quality and parameter maps, view thumbnails";
   EXPECT_GE(verdict.svgs, 4) << "polar plots and colour bars";
+  EXPECT_EQ(verdict.counts.value("thumbnails", -1), n) << "every view's thumbnail decoded, 96 px wide";
+  EXPECT_EQ(verdict.counts.value("held", -1), int(fit.held_out.size()));
+  EXPECT_EQ(verdict.counts.value("rings", -1), int(fit.held_out.size()));
+  EXPECT_EQ(verdict.counts.value("excluded", -1), 2);
+  EXPECT_EQ(verdict.counts.value("crosses", -1), 2);
   EXPECT_TRUE(verdict.console_lines.empty()) << verdict.console_lines;
 }
 

@@ -3,10 +3,11 @@
 // can be mailed. docs/report.md describes the sections.
 //
 // Sections, each a <section id="..."> that is always present: "coverage" (the planned and captured directions on the
-// hemisphere, coloured by capture order, with the planned route), "views" (per view: bracket exposures, saturated
-// frames, clipped HDR fraction, capture time from journal.jsonl), "calibration" (intrinsics with the reprojection
-// RMS, per-view marker reprojection error, the kinematic fit), "maps" (per fitted map: false-colour fit residual,
-// held-out error and lobe count with colour bars), "compare" (the `vdrig compare` table with thumbnails, from
+// hemisphere, coloured by capture order, with the planned route; held-out and excluded views marked), "views"
+// (thumbnails of the merged views; per view: bracket exposures, saturated frames, clipped HDR fraction, capture time
+// from journal.jsonl), "calibration" (intrinsics with the reprojection RMS, per-view marker reprojection error, the
+// kinematic fit), "maps" (per fitted map: images of its parameters, false-colour fit residual, held-out error and
+// lobe count with colour bars), "compare" (the `vdrig compare` table with thumbnails, from
 // compare.json), "texels" (observations of the worst, the median and chosen texels on the hemisphere, coloured by
 // the fit's residual) and "provenance" (software version, stage timings, commands). A part of the session that is
 // not there yet (no calibration, no fit, no comparison) is named in its section with the command that makes it.
@@ -27,7 +28,8 @@ struct ReportOptions {
   /// The comparison to show; empty = SESSION/renders/compare/compare.json (compare_stage.hpp) when present.
   std::filesystem::path compare_json;
   int thumbnail_width_px = 200;  // compare thumbnails
-  int map_image_px = 256;        // false-colour maps are scaled (nearest) to at least this many pixels wide
+  int map_image_px = 256;        // images of maps are shown this many pixels wide (pixelated; larger maps reduced)
+  int view_thumbnail_px = 96;    // width of the views' thumbnails (0: none)
 };
 
 /// The report's HTML. Errors: a session that cannot be opened (no manifest, a damaged manifest or journal:

@@ -1,0 +1,93 @@
+// The web console in a real browser (run by tests/web/test_browser.cpp): Debian's headless chromium driven by the
+// pinned puppeteer-core. Opens the URL `vdrig serve` prints, starts a simulated session from the form (after one
+// the daemon refuses, whose reason must show), watches progress events arrive, pauses, resumes, waits for the end,
+// and fails on any console error. Prints one JSON line of what it saw; exits non-zero with the reason on a failure.
+//   node console_test.mjs URL CHROMIUM PROFILE_DIR SESSION SCHEME
+import puppeteer from 'puppeteer-core';
+
+const [url, chromium, profile, session, scheme] = process.argv.slice(2);
+const seen = { consoleErrors: [], expectedRefusals: 0, steps: [] };
+// The one error the browser logs by design: the refused start's 400 ("Failed to load resource"), while it is awaited.
+let refusalAwaited = false;
+const step = (s) => seen.steps.push(s);
+
+const browser = await puppeteer.launch({
+  executablePath: chromium,
+  headless: true,
+  userDataDir: profile,
+  args: ['--no-sandbox', '--no-first-run', '--disable-gpu', '--disable-dev-shm-usage'],
+});
+let failed = null;
+try {
+  const page = await browser.newPage();
+  page.setDefaultTimeout(15000);
+  page.on('console', (m) => {
+    if (m.type() !== 'error') return;
+    const where = (m.location() && m.location().url) || '';
+    if (refusalAwaited && where.endsWith('/api/start') && m.text().includes('status of 400')) {
+      seen.expectedRefusals += 1;
+      return;
+    }
+    seen.consoleErrors.push(m.text() + (where ? ' (' + where + ')' : ''));
+  });
+  page.on('pageerror', (e) => seen.consoleErrors.push('page error: ' + e.message));
+  const text = (sel) => page.$eval(sel, (el) => el.textContent);
+  const progress = () => page.$eval('#progress', (el) => [el.value, el.max]);
+
+  await page.goto(url, { waitUntil: 'domcontentloaded' });
+  seen.address = page.url();  // the token went into a cookie, out of the address
+  await page.waitForSelector('#daemon.up');
+  step('daemon connected');
+
+  const fill = async (name, value) => page.$eval(`input[name="${name}"]`, (el, v) => { el.value = v; }, value);
+  // The daemon's own validation, relayed: a scheme it does not know.
+  await fill('session', session);
+  await fill('scheme', 'nonsense:3');
+  await fill('bracket', 'fixed:0.01,0.02');
+  await fill('scene', 'patchwork');
+  refusalAwaited = true;
+  await page.click('#start-form button[type="submit"]');
+  await page.waitForFunction(() => document.getElementById('start-error').textContent.length > 0);
+  refusalAwaited = false;
+  seen.startError = await text('#start-error');
+  step('bad scheme refused');
+
+  await fill('scheme', scheme);
+  const before = Number(await text('#event-count'));
+  await page.click('#start-form button[type="submit"]');
+  await page.waitForFunction(() => document.getElementById('state').textContent === 'running' &&
+                             Number(document.getElementById('progress').value) >= 1);
+  step('running');
+  await page.click('#pause');
+  await page.waitForFunction(() => document.getElementById('state').textContent === 'paused');
+  seen.eventsWhileRunning = Number(await text('#event-count')) - before;
+  const [pausedAt, total] = await progress();
+  seen.pausedAt = pausedAt;
+  seen.total = total;
+  step('paused');
+  await new Promise((r) => setTimeout(r, 700));
+  seen.progressAfterPause = (await progress())[0];
+  seen.stateAfterPause = await text('#state');
+
+  await page.click('#resume');
+  await page.waitForFunction(() => document.getElementById('state').textContent === 'completed', { timeout: 30000 });
+  step('completed');
+  seen.final = await progress();
+  // The list follows: the session's row says every view is done.
+  await page.waitForFunction((s, n) => {
+    const row = document.querySelector(`tr[data-session="${s}"]`);
+    return row && row.children[1].textContent === `${n}/${n}`;
+  }, {}, session, total);
+  seen.row = await page.$eval(`tr[data-session="${session}"]`, (el) => el.children[1].textContent);
+  step('listed');
+  seen.events = Number(await text('#event-count'));
+} catch (e) {
+  failed = String(e && e.stack || e);
+} finally {
+  await browser.close();
+}
+console.log(JSON.stringify(seen));
+if (failed) {
+  console.error(failed);
+  process.exit(1);
+}

@@ -1,0 +1,231 @@
+#include "daemon_link.hpp"
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "vdrig/core/log.hpp"
+
+namespace vdrig::web {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+/// A connected socket to the daemon, closed with the object.
+class Connection {
+ public:
+  ~Connection() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Status open(const fs::path& socket_path) {
+    const std::string path = socket_path.string();
+    sockaddr_un addr{};
+    if (path.size() >= sizeof addr.sun_path) return make_error(ErrorCode::kInvalidArgument, "socket path too long");
+    addr.sun_family = AF_UNIX;
+    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0)
+      return make_error(ErrorCode::kDisconnected, "cannot reach vdrigd at " + path + ": " + std::strerror(errno));
+    return Status::ok();
+  }
+  bool send_line(const json& j) {
+    const std::string line = j.dump() + "\n";
+    size_t done = 0;
+    while (done < line.size()) {
+      const ssize_t n = ::send(fd_, line.data() + done, line.size() - done, MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      done += static_cast<size_t>(n);
+    }
+    return true;
+  }
+  /// The next line: kTimeout when none came within `wait_ms`, kDisconnected when the daemon closed.
+  Result<std::string> read_line(int wait_ms) {
+    while (true) {
+      const size_t pos = buf_.find('\n');
+      if (pos != std::string::npos) {
+        std::string line = buf_.substr(0, pos);
+        buf_.erase(0, pos + 1);
+        return line;
+      }
+      pollfd p{fd_, POLLIN, 0};
+      const int ready = ::poll(&p, 1, wait_ms);
+      if (ready == 0) return make_error(ErrorCode::kTimeout, "vdrigd did not answer in time");
+      if (ready < 0 && errno == EINTR) continue;
+      char tmp[4096];
+      const ssize_t n = ready < 0 ? -1 : ::recv(fd_, tmp, sizeof tmp, 0);
+      if (n <= 0) return make_error(ErrorCode::kDisconnected, "vdrigd closed the connection");
+      buf_.append(tmp, static_cast<size_t>(n));
+    }
+  }
+
+ private:
+  int fd_ = -1;
+  std::string buf_;
+};
+
+}  // namespace
+
+Result<json> daemon_request(const fs::path& socket_path, const json& request, double timeout_s) {
+  Connection c;
+  VDRIG_TRY(c.open(socket_path));
+  const bool sent = c.send_line(request);
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (true) {
+    // A daemon refusing this peer (its uid, too many clients) writes the reason and closes, maybe before the send:
+    // the reason is still there to read, so a failed send reads on.
+    const int left_ms = static_cast<int>(
+        std::max<int64_t>(0, std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count()));
+    auto line = c.read_line(left_ms);
+    if (!line) {
+      if (sent) return line.error();
+      return make_error(ErrorCode::kDisconnected, "send to vdrigd failed");
+    }
+    json reply = json::parse(line.value(), nullptr, false);
+    if (reply.is_discarded() || !reply.is_object()) return make_error(ErrorCode::kCorrupt, "vdrigd sent invalid JSON");
+    if (!reply.contains("event")) return reply;
+  }
+}
+
+void EventQueue::push(const std::string& line) {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) return;
+    if (lines_.size() >= kMaxQueued) lines_.pop_front();
+    lines_.push_back(line);
+  }
+  ready_.notify_one();
+}
+
+void EventQueue::close() {
+  {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+  }
+  ready_.notify_all();
+}
+
+bool EventQueue::pop(std::string& line, std::chrono::milliseconds wait) {
+  std::unique_lock lock(mutex_);
+  ready_.wait_for(lock, wait, [&] { return closed_ || !lines_.empty(); });
+  if (closed_) return false;
+  line.clear();
+  if (!lines_.empty()) {
+    line = std::move(lines_.front());
+    lines_.pop_front();
+  }
+  return true;
+}
+
+EventRelay::EventRelay(fs::path socket_path) : socket_path_(std::move(socket_path)) {}
+
+EventRelay::~EventRelay() { stop(); }
+
+void EventRelay::start() {
+  thread_ = std::thread([this] { loop(); });
+}
+
+void EventRelay::stop() {
+  std::vector<std::shared_ptr<EventQueue>> queues;
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    queues.swap(subscribers_);
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  for (auto& q : queues) q->close();
+}
+
+std::shared_ptr<EventQueue> EventRelay::subscribe() {
+  auto queue = std::make_shared<EventQueue>();
+  std::lock_guard lock(mutex_);
+  if (stopping_) {
+    queue->close();
+    return queue;
+  }
+  if (connected_ >= 0) queue->push(json{{"event", "daemon"}, {"connected", connected_ == 1}}.dump());
+  // In the order they came: a progress event replayed after a later state event would undo it on the page.
+  const std::string* first = progress_after_state_ ? &last_state_ : &last_progress_;
+  const std::string* second = progress_after_state_ ? &last_progress_ : &last_state_;
+  for (const std::string* line : {static_cast<const std::string*>(&last_status_), first, second})
+    if (!line->empty()) queue->push(*line);
+  subscribers_.push_back(queue);
+  return queue;
+}
+
+void EventRelay::unsubscribe(const std::shared_ptr<EventQueue>& queue) {
+  std::lock_guard lock(mutex_);
+  subscribers_.erase(std::remove(subscribers_.begin(), subscribers_.end(), queue), subscribers_.end());
+}
+
+void EventRelay::publish(const std::string& line) {
+  std::lock_guard lock(mutex_);
+  for (auto& q : subscribers_) q->push(line);
+}
+
+void EventRelay::set_connected(bool connected) {
+  {
+    std::lock_guard lock(mutex_);
+    if (connected_ == (connected ? 1 : 0)) return;
+    connected_ = connected ? 1 : 0;
+    if (!connected) last_status_.clear(), last_state_.clear(), last_progress_.clear();
+  }
+  publish(json{{"event", "daemon"}, {"connected", connected}}.dump());
+}
+
+void EventRelay::loop() {
+  auto logger = log::get("web");
+  auto stopping = [this] {
+    std::lock_guard lock(mutex_);
+    return stopping_;
+  };
+  while (!stopping()) {
+    Connection c;
+    Status linked = c.open(socket_path_);
+    if (linked && !c.send_line({{"cmd", "subscribe"}})) linked = make_error(ErrorCode::kDisconnected, "send failed");
+    while (linked && !stopping()) {
+      auto line = c.read_line(200);  // short, so that stop() is seen soon
+      if (!line) {
+        if (line.error().code == ErrorCode::kTimeout) continue;
+        linked = line.status();
+        break;
+      }
+      json j = json::parse(line.value(), nullptr, false);
+      if (j.is_discarded() || !j.is_object()) continue;
+      if (!j.contains("event")) {  // the subscribe reply: the status at this moment
+        if (!j.value("ok", false)) {
+          linked = make_error(ErrorCode::kDisconnected, "vdrigd refused the subscription: " + j.value("error", ""));
+          break;
+        }
+        j.erase("ok");
+        j["event"] = "status";
+        set_connected(true);
+        std::lock_guard lock(mutex_);
+        last_status_ = j.dump();
+        last_state_.clear();
+        last_progress_.clear();
+        for (auto& q : subscribers_) q->push(last_status_);
+        continue;
+      }
+      const std::string kind = j.value("event", "");
+      const std::string text = j.dump();  // re-serialised: one line, whatever spacing the daemon used
+      std::lock_guard lock(mutex_);
+      if (kind == "state") last_state_ = text, progress_after_state_ = false;
+      if (kind == "progress") last_progress_ = text, progress_after_state_ = true;
+      for (auto& q : subscribers_) q->push(text);
+    }
+    if (!linked) logger->debug("event relay: {}", linked.describe());
+    set_connected(false);
+    std::unique_lock lock(mutex_);
+    wake_.wait_for(lock, std::chrono::seconds(1), [this] { return stopping_; });
+  }
+}
+
+}  // namespace vdrig::web

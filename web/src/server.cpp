@@ -1,0 +1,412 @@
+#include "vdrig/web/server.hpp"
+
+#include <fcntl.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include "assets.hpp"
+#include "daemon_link.hpp"
+#include "guard.hpp"
+#include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/session_layout.hpp"
+#include "vdrig/core/log.hpp"
+
+// Last: httplib.h includes <resolv.h>, whose macro `_res` breaks Eigen's headers (which vdrig's include).
+#include <httplib.h>
+
+namespace vdrig::web {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+Result<std::string> random_token() {
+  unsigned char bytes[24];
+  std::size_t got = 0;
+  while (got < sizeof bytes) {
+    const ssize_t n = ::getrandom(bytes + got, sizeof bytes - got, 0);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return make_error(ErrorCode::kIo, std::string("getrandom failed: ") + std::strerror(errno));
+    got += static_cast<std::size_t>(n);
+  }
+  static const char* const kHex = "0123456789abcdef";
+  std::string token;
+  for (const unsigned char b : bytes) token += kHex[b >> 4], token += kHex[b & 15];
+  return token;
+}
+
+namespace {
+
+/// The files of a session the console serves, by the name the request gives; nothing else of the folder is reachable.
+const std::set<std::string>& served_session_files() {
+  static const std::set<std::string> names = {
+      capture::SessionLayout("").manifest_file().filename().string(),
+      capture::SessionLayout("").journal_file().filename().string(),
+  };
+  return names;
+}
+
+std::string_view asset(std::string_view name) {
+  for (const Asset& a : assets())
+    if (a.name == name) return a.text;
+  return {};
+}
+
+bool wildcard_address(const std::string& address) { return address == "0.0.0.0" || address == "::"; }
+
+void send_json(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message) {
+  send_json(res, status, {{"ok", false}, {"code", code}, {"error", message}});
+}
+
+/// The HTTP status of a daemon's error reply: the request's fault (400), a conflict with the rig's state (409), a
+/// missing session (404), else the daemon's or the rig's failure (500).
+int http_status_of(const std::string& code) {
+  if (code == "bad_request" || code == "invalid_argument" || code == "unknown_command" || code == "too_long")
+    return 400;
+  if (code == "busy" || code == "invalid_state" || code == "in_use") return 409;
+  if (code == "not_found") return 404;
+  return 500;
+}
+
+}  // namespace
+
+struct Server::Impl {
+  ServerOptions options;
+  std::string token;
+  int port = 0;
+  httplib::Server http;
+  RateLimiter limiter;
+  EventRelay relay;
+  std::atomic<int> open_streams{0};
+  std::atomic<bool> stop_requested{false}, run_entered{false}, run_exited{false};
+  std::shared_ptr<spdlog::logger> logger = log::get("web");
+
+  explicit Impl(ServerOptions o)
+      : options(std::move(o)),
+        limiter(options.rate_per_s, options.rate_burst),
+        relay(options.runtime_dir / "vdrigd.sock") {}
+
+  fs::path socket_path() const { return options.runtime_dir / "vdrigd.sock"; }
+  std::string cookie_name() const { return "vdrig_token_" + std::to_string(port); }
+
+  /// The Host values this server answers to: its loopback names and its bound address, at its port. A request
+  /// naming another host is refused (403), so that a page of another site whose name was re-pointed at this machine
+  /// (DNS rebinding) is not served; a wildcard bind answers any name, and the token alone guards it.
+  bool host_allowed(const std::string& host) const {
+    if (wildcard_address(options.bind_address)) return true;
+    const std::string p = ":" + std::to_string(port);
+    const std::string bound =
+        options.bind_address.find(':') != std::string::npos ? "[" + options.bind_address + "]" : options.bind_address;
+    return host == "127.0.0.1" + p || host == "localhost" + p || host == "[::1]" + p || host == bound + p;
+  }
+
+  bool token_matches(const httplib::Request& req, bool header_only) const {
+    if (req.has_header("X-Vdrig-Token")) return same_secret(req.get_header_value("X-Vdrig-Token"), token);
+    if (header_only) return false;
+    if (req.has_param("token")) return same_secret(req.get_param_value("token"), token);
+    return same_secret(cookie_value(req.get_header_value("Cookie"), cookie_name()), token);
+  }
+
+  /// Every request, before routing: rate (429), Host (403), token (401), and for a POST the token in the header and
+  /// the Origin (403). What passes is routed; httplib itself answers a body above the limit with 413.
+  httplib::Server::HandlerResponse guard(const httplib::Request& req, httplib::Response& res) {
+    using R = httplib::Server::HandlerResponse;
+    if (!limiter.allow(req.remote_addr)) {
+      res.set_header("Retry-After", "1");
+      send_error(res, 429, "rate_limited", "too many requests from " + req.remote_addr);
+      return R::Handled;
+    }
+    const std::string host = req.get_header_value("Host");
+    if (!host_allowed(host)) {
+      send_error(res, 403, "forbidden", "this server does not answer to host " + host);
+      return R::Handled;
+    }
+    if (!token_matches(req, false)) {
+      res.status = 401;
+      res.set_content("401: the console needs its token: open the URL that `vdrig serve` printed\n", "text/plain");
+      return R::Handled;
+    }
+    if (req.method != "GET" && req.method != "HEAD") {
+      if (!token_matches(req, true)) {
+        send_error(res, 403, "forbidden", "a state-changing request needs the token in the X-Vdrig-Token header");
+        return R::Handled;
+      }
+      if (req.get_header_value("Origin") != "http://" + host) {
+        send_error(res, 403, "forbidden",
+                   "cross-origin request refused (Origin: " + req.get_header_value("Origin") + ")");
+        return R::Handled;
+      }
+    }
+    return R::Unhandled;
+  }
+
+  void relay_reply(httplib::Response& res, const json& request) {
+    auto reply = daemon_request(socket_path(), request, options.daemon_timeout_s);
+    if (!reply) {
+      const bool late = reply.error().code == ErrorCode::kTimeout;
+      send_error(res, late ? 504 : 502, capture::wire_code(reply.error().code), reply.error().message);
+      return;
+    }
+    const json& r = reply.value();
+    send_json(res, r.value("ok", false) ? 200 : http_status_of(r.value("code", "")), r);
+  }
+
+  /// The JSON object body of a POST with only string fields among `fields`; nullopt (and a 400 sent) otherwise.
+  std::optional<json> string_fields(const httplib::Request& req, httplib::Response& res,
+                                    const std::vector<std::string>& fields) {
+    json body = req.body.empty() ? json::object() : json::parse(req.body, nullptr, false);
+    if (body.is_discarded() || !body.is_object()) {
+      send_error(res, 400, "bad_request", "the body must be a JSON object");
+      return std::nullopt;
+    }
+    json out = json::object();
+    for (const auto& [key, value] : body.items()) {
+      if (std::find(fields.begin(), fields.end(), key) == fields.end()) {
+        send_error(res, 400, "bad_request", "unknown field " + key);
+        return std::nullopt;
+      }
+      if (!value.is_string()) {
+        send_error(res, 400, "bad_request", "field " + key + " must be a string");
+        return std::nullopt;
+      }
+      if (!value.get<std::string>().empty()) out[key] = value;  // an empty form field: the daemon's default
+    }
+    return out;
+  }
+
+  void serve_asset(httplib::Response& res, std::string_view name, const std::string& type) {
+    res.set_content(std::string(asset(name)), type);
+  }
+
+  void serve_page(const httplib::Request& req, httplib::Response& res) {
+    if (req.has_param("token")) {
+      // The first load: the token goes into a cookie, and the page is loaded again without it in the address.
+      res.set_header("Set-Cookie", cookie_name() + "=" + token + "; Path=/; HttpOnly; SameSite=Strict");
+      res.set_redirect("/", 303);
+      return;
+    }
+    std::string page(asset("index.html"));
+    const std::string mark = "{{TOKEN}}";
+    const auto at = page.find(mark);
+    if (at != std::string::npos) page.replace(at, mark.size(), token);
+    res.set_content(page, "text/html; charset=utf-8");
+  }
+
+  /// A session's file, by session name and file name only: the name must be a valid session name and one the
+  /// daemon lists, the file one of served_session_files(); the path is built here, never taken from the request,
+  /// and a link at either step is not followed.
+  void serve_session_file(const std::string& session, const std::string& file, httplib::Response& res) {
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session) || !served_session_files().count(file)) {
+      send_error(res, 404, "not_found", "no such file");
+      return;
+    }
+    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
+    if (!listing) {
+      send_error(res, 502, capture::wire_code(listing.error().code), listing.error().message);
+      return;
+    }
+    bool listed = false;
+    for (const auto& s : listing.value().value("sessions", json::array()))
+      if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
+    if (!listed) {
+      send_error(res, 404, "not_found", "no such file");
+      return;
+    }
+    const int dir = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    const int fd = dir < 0 ? -1 : ::openat(dir, file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    if (dir >= 0) ::close(dir);
+    struct stat st {};
+    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size > (64 << 20)) {
+      if (fd >= 0) ::close(fd);
+      send_error(res, 404, "not_found", "no such file");
+      return;
+    }
+    std::string text(static_cast<std::size_t>(st.st_size), '\0');
+    std::size_t done = 0;
+    while (done < text.size()) {
+      const ssize_t n = ::read(fd, text.data() + done, text.size() - done);
+      if (n <= 0) break;
+      done += static_cast<std::size_t>(n);
+    }
+    ::close(fd);
+    text.resize(done);
+    res.set_content(text, file.ends_with(".json") ? "application/json" : "text/plain; charset=utf-8");
+  }
+
+  void serve_events(httplib::Response& res) {
+    if (open_streams.fetch_add(1) >= options.max_event_streams) {
+      open_streams.fetch_sub(1);
+      send_error(res, 503, "busy", "too many open event streams");
+      return;
+    }
+    auto queue = relay.subscribe();
+    res.set_header("X-Accel-Buffering", "no");
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [queue, first = true](size_t, httplib::DataSink& sink) mutable {
+          if (first) {
+            first = false;
+            const std::string retry = "retry: 1000\n\n";
+            return sink.write(retry.data(), retry.size());
+          }
+          std::string line;
+          if (!queue->pop(line, std::chrono::seconds(5))) return false;  // the server stops
+          // A comment when nothing happened: keeps proxies from timing the stream out, and finds a page that went away
+          // (the write fails) within seconds, so that its worker and stream slot are freed.
+          const std::string chunk = line.empty() ? std::string(": idle\n\n") : "data: " + line + "\n\n";
+          return sink.write(chunk.data(), chunk.size());
+        },
+        [this, queue](bool) {
+          relay.unsubscribe(queue);
+          open_streams.fetch_sub(1);
+        });
+  }
+
+  void routes() {
+    http.new_task_queue = [n = options.worker_threads] { return new httplib::ThreadPool(static_cast<size_t>(n)); };
+    http.set_payload_max_length(options.max_body_bytes);
+    http.set_keep_alive_timeout(2);  // an idle keep-alive connection holds a worker: not for long
+    http.set_read_timeout(5);
+    http.set_default_headers({
+        {"Cache-Control", "no-store"},
+        {"X-Content-Type-Options", "nosniff"},
+        {"X-Frame-Options", "DENY"},
+        // same-origin, not no-referrer: with no-referrer a browser sends "Origin: null" on the page's own POSTs.
+        {"Referrer-Policy", "same-origin"},
+        {"Content-Security-Policy",
+         "default-src 'none'; script-src 'self'; style-src 'self'; connect-src 'self'; img-src 'self' data:; "
+         "base-uri 'none'; form-action 'none'; frame-ancestors 'none'"},
+    });
+    http.set_pre_routing_handler(
+        [this](const httplib::Request& req, httplib::Response& res) { return guard(req, res); });
+    http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+      logger->debug("{} {} {} -> {}", req.remote_addr, req.method, req.path, res.status);
+    });
+    http.Get("/", [this](const httplib::Request& req, httplib::Response& res) { serve_page(req, res); });
+    http.Get("/static/app.js", [this](const httplib::Request&, httplib::Response& res) {
+      serve_asset(res, "app.js", "text/javascript; charset=utf-8");
+    });
+    http.Get("/static/style.css", [this](const httplib::Request&, httplib::Response& res) {
+      serve_asset(res, "style.css", "text/css; charset=utf-8");
+    });
+    http.Get("/api/status", [this](const httplib::Request&, httplib::Response& res) {
+      relay_reply(res, {{"cmd", "status"}});
+    });
+    http.Get("/api/sessions", [this](const httplib::Request&, httplib::Response& res) {
+      relay_reply(res, {{"cmd", "list-sessions"}});
+    });
+    http.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) { serve_events(res); });
+    http.Get(R"(/files/([^/]+)/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+      serve_session_file(req.matches[1], req.matches[2], res);
+    });
+    // The commands, each with the daemon's own fields: the daemon validates them and its error text is relayed.
+    http.Post("/api/start", [this](const httplib::Request& req, httplib::Response& res) {
+      auto fields = string_fields(req, res, {"session", "scheme", "bracket", "scene"});
+      if (!fields) return;
+      json request = fields.value();
+      request["cmd"] = "start";
+      relay_reply(res, request);
+    });
+    http.Post("/api/resume", [this](const httplib::Request& req, httplib::Response& res) {
+      auto fields = string_fields(req, res, {"session"});
+      if (!fields) return;
+      json request = fields.value();
+      request["cmd"] = "resume";
+      relay_reply(res, request);
+    });
+    for (const char* verb : {"pause", "abort", "stop"}) {
+      http.Post(std::string("/api/") + verb, [this, verb](const httplib::Request& req, httplib::Response& res) {
+        if (!string_fields(req, res, {})) return;
+        relay_reply(res, {{"cmd", verb}});
+      });
+    }
+  }
+};
+
+Server::Server(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+Server::~Server() {
+  if (impl_) stop();
+}
+
+Result<std::unique_ptr<Server>> Server::create(ServerOptions options) {
+  std::vector<std::string> why;
+  if (options.port < 0 || options.port > 65535) why.push_back("port must be 0..65535");
+  if (options.runtime_dir.empty()) why.push_back("no runtime folder");
+  if (options.bind_address.empty()) why.push_back("no address to bind");
+  if (options.worker_threads < 2) why.push_back("worker_threads must be at least 2");
+  if (options.max_event_streams < 1 || options.max_event_streams >= options.worker_threads)
+    why.push_back("max_event_streams must be 1..worker_threads-1 (a stream holds a worker)");
+  if (!(options.rate_per_s > 0) || !(options.rate_burst >= 1)) why.push_back("rate_per_s > 0 and rate_burst >= 1");
+  if (!options.token.empty() && options.token.size() < 16) why.push_back("a token needs 16 characters at least");
+  if (!why.empty()) {
+    std::string text;
+    for (const auto& w : why) text += (text.empty() ? "" : "; ") + w;
+    return make_error(ErrorCode::kInvalidArgument, "vdrig serve: " + text);
+  }
+  if (options.token.empty()) {
+    auto token = random_token();
+    if (!token) return token.error();
+    options.token = token.value();
+  }
+  auto impl = std::make_unique<Impl>(std::move(options));
+  impl->token = impl->options.token;
+  impl->routes();
+  const std::string& address = impl->options.bind_address;
+  if (impl->options.port == 0) {
+    impl->port = impl->http.bind_to_any_port(address);
+    if (impl->port <= 0) return make_error(ErrorCode::kIo, "cannot bind " + address + ": " + std::strerror(errno));
+  } else {
+    if (!impl->http.bind_to_port(address, impl->options.port))
+      return make_error(ErrorCode::kIo, "cannot bind " + address + ":" + std::to_string(impl->options.port) + ": " +
+                                            std::strerror(errno));
+    impl->port = impl->options.port;
+  }
+  return std::unique_ptr<Server>(new Server(std::move(impl)));
+}
+
+int Server::port() const { return impl_->port; }
+const std::string& Server::token() const { return impl_->token; }
+
+std::string Server::url() const {
+  const std::string& a = impl_->options.bind_address;
+  const std::string host = wildcard_address(a) ? "127.0.0.1" : a.find(':') != std::string::npos ? "[" + a + "]" : a;
+  return "http://" + host + ":" + std::to_string(impl_->port) + "/?token=" + impl_->token;
+}
+
+Status Server::run() {
+  impl_->run_entered = true;
+  if (impl_->stop_requested) {
+    impl_->run_exited = true;
+    return Status::ok();
+  }
+  impl_->relay.start();
+  const bool listened = impl_->http.listen_after_bind();
+  impl_->run_exited = true;
+  impl_->relay.stop();
+  if (!listened) return make_error(ErrorCode::kIo, "the web server stopped listening");
+  return Status::ok();
+}
+
+void Server::stop() {
+  impl_->stop_requested = true;
+  impl_->relay.stop();  // first: the event streams end, so their workers are free when the pool joins
+  // httplib's stop() does nothing before its loop runs: wait for run() to get there (or to have ended).
+  if (impl_->run_entered)
+    while (!impl_->http.is_running() && !impl_->run_exited) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  impl_->http.stop();
+}
+
+}  // namespace vdrig::web
