@@ -39,6 +39,7 @@ constexpr NotRun kNotRunHere[] = {
     {"vdrig rig check my_rig.json", "needs the user's rig config (rig check runs in capture_test_rig_cli)"},
     {"vdrig capture --out S2 --rig my_rig.json", "needs the user's rig config"},
     {"vdrig view ", "an interactive window (the viewer's tests render the same maps headless)"},
+    {"vdrig serve ", "a web server that runs until stopped (web_test_serve_cli and web_test_browser run it)"},
     {"mpirun ", "a cluster (cluster_test_mpi_fit runs vdrig fit --mpi under mpirun)"},
 };
 
@@ -110,7 +111,7 @@ TEST(ReadmeSteps, EveryStepOfTheBlockRunsOnTheSimulatorInOrder) {
     }
     const std::string command = "cd " + vdrig::test::shell_quote(dir.string()) + " && " +
                                 vdrig::test::shell_quote(VDRIG_CLI_PATH) + step.substr(5);
-    const auto run = vdrig::test::run_shell(command, {300, true});
+    const auto run = vdrig::test::run_shell(command, {120, true});
     ASSERT_EQ(run.exit_code, 0) << "README step failed: " << step << "\n" << run.out;
     std::printf("%6.1f s  %s\n", run.wall_s, step.c_str());
     ++ran;
