@@ -41,7 +41,7 @@ constexpr double kChessboardSquareM = 0.160;
 
 /// Makes room for the demo's session. Running the demo again replaces the session an earlier demo made, but never
 /// deletes what vdrig did not create: a folder that is not a demo session (its manifest says who made it), or one
-/// holding anything the demo does not write (a notes file, calib/, a map fitted by hand), is refused and left alone.
+/// holding anything the demo does not write (a notes file, a map fitted by hand), is refused and left alone.
 Status clear_earlier_demo(const fs::path& session_dir) {
   std::error_code ec;
   if (!fs::exists(session_dir, ec) || fs::is_empty(session_dir, ec)) return Status::ok();
