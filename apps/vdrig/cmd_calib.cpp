@@ -1,5 +1,5 @@
-// `vdrig calib intrinsics|response|extrinsics`, `vdrig hdr merge` (image files) and `vdrig hdr SESSION` (every
-// bracket of a session).
+// `vdrig calib intrinsics|response|extrinsics` (image files or a session), `vdrig hdr merge` (image files) and `vdrig
+// hdr SESSION` (every bracket of a session).
 #include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "commands.hpp"
@@ -69,13 +70,44 @@ Result<std::vector<Frame>> load_bracket(const std::vector<std::string>& items, i
   return frames;
 }
 
-Status run_intrinsics(const std::string& board, double square_m, const std::vector<std::string>& paths,
-                      const std::string& out, const calib::IntrinsicsOptions& opt) {
+/// "9x6" -> (9, 6) inner corners.
+Result<std::pair<int, int>> parse_board(const std::string& board) {
   int cols = 0, rows = 0;
   char x = 0;
   std::istringstream bs(board);
   if (!(bs >> cols >> x >> rows) || (x != 'x' && x != 'X') || !bs.eof())
     return usage("--board wants COLSxROWS inner corners, e.g. 9x6; got '" + board + "'");
+  return std::make_pair(cols, rows);
+}
+
+/// Prints the calibration's table and parameters and writes `out`; `names` labels the views.
+Status report_intrinsics(const calib::IntrinsicsResult& result, const std::vector<std::string>& names,
+                         const std::string& out) {
+  const auto& c = result.camera;
+  const auto& s = result.std_dev;
+  std::printf("view  rms_px  status  image\n");
+  for (const auto& v : result.views)
+    std::printf("%4zu  %6.3f  %-7s %s\n", v.image_index, v.rms_px,
+                !v.board_found ? "nofound"
+                : v.outlier    ? "OUTLIER"
+                : v.used       ? "ok"
+                               : "dropped",
+                v.image_index < names.size() ? names[v.image_index].c_str() : "");
+  std::printf("RMS %.4f px over %zu views (%dx%d)\n", result.rms_px, result.used_views(), c.width, c.height);
+  std::printf("fx %10.3f +- %.3f   fy %10.3f +- %.3f\n", c.fx, s.fx, c.fy, s.fy);
+  std::printf("cx %10.3f +- %.3f   cy %10.3f +- %.3f\n", c.cx, s.cx, c.cy, s.cy);
+  std::printf("k1 %10.5f +- %.5f   k2 %10.5f +- %.5f   k3 %10.5f +- %.5f\n", c.k1, s.k1, c.k2, s.k2, c.k3, s.k3);
+  std::printf("p1 %10.6f +- %.6f   p2 %10.6f +- %.6f\n", c.p1, s.p1, c.p2, s.p2);
+  VDRIG_TRY(result.save_yaml(out));
+  std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
+}
+
+Status run_intrinsics(const std::string& board, double square_m, const std::vector<std::string>& paths,
+                      const std::string& out, const calib::IntrinsicsOptions& opt) {
+  auto parsed = parse_board(board);
+  if (!parsed) return parsed.error();
+  const auto [cols, rows] = parsed.value();
   std::vector<cv::Mat> images;
   for (const auto& p : paths) {
     VDRIG_TRY(check_regular_file(p));  // cv::imread would wait on a FIFO
@@ -85,24 +117,26 @@ Status run_intrinsics(const std::string& board, double square_m, const std::vect
   }
   auto res = calib::calibrate_intrinsics(images, cols, rows, square_m, opt);
   if (!res) return res.error();
-  const auto& c = res->camera;
-  const auto& s = res->std_dev;
-  std::printf("view  rms_px  status  image\n");
-  for (const auto& v : res->views)
-    std::printf("%4zu  %6.3f  %-7s %s\n", v.image_index, v.rms_px,
-                !v.board_found ? "nofound"
-                : v.outlier    ? "OUTLIER"
-                : v.used       ? "ok"
-                               : "dropped",
-                paths[v.image_index].c_str());
-  std::printf("RMS %.4f px over %zu views (%dx%d)\n", res->rms_px, res->used_views(), c.width, c.height);
-  std::printf("fx %10.3f +- %.3f   fy %10.3f +- %.3f\n", c.fx, s.fx, c.fy, s.fy);
-  std::printf("cx %10.3f +- %.3f   cy %10.3f +- %.3f\n", c.cx, s.cx, c.cy, s.cy);
-  std::printf("k1 %10.5f +- %.5f   k2 %10.5f +- %.5f   k3 %10.5f +- %.5f\n", c.k1, s.k1, c.k2, s.k2, c.k3, s.k3);
-  std::printf("p1 %10.6f +- %.6f   p2 %10.6f +- %.6f\n", c.p1, s.p1, c.p2, s.p2);
-  VDRIG_TRY(res->save_yaml(out));
-  std::printf("wrote %s\n", out.c_str());
-  return Status::ok();
+  return report_intrinsics(res.value(), paths, out);
+}
+
+/// Intrinsics from a session of a chessboard (pipeline::calibrate_session_intrinsics: one frame per complete view).
+Status run_session_intrinsics(const std::string& session_dir, const std::string& board, double square_m,
+                              const std::string& out, const calib::IntrinsicsOptions& opt) {
+  auto parsed = parse_board(board);
+  if (!parsed) return parsed.error();
+  auto session = capture::Session::open(session_dir);
+  if (!session) return session.error();
+  pipeline::SessionIntrinsicsOptions options;
+  std::tie(options.board_cols, options.board_rows) = parsed.value();
+  options.square_m = square_m;
+  options.intrinsics = opt;
+  auto res = pipeline::calibrate_session_intrinsics(session.value(), options);
+  if (!res) return res.error();
+  std::vector<std::string> names;
+  for (const auto& view : session->manifest().views)
+    if (session->view_complete(view.index)) names.push_back("view " + std::to_string(view.index));
+  return report_intrinsics(res.value(), names, out);
 }
 
 Status run_response(const std::vector<std::string>& items, const std::string& out,
@@ -119,6 +153,20 @@ Status run_response(const std::vector<std::string>& items, const std::string& ou
   }
   VDRIG_TRY(write_file_atomic(out, rec->curve.to_json().dump(1)));
   std::printf("wrote %s\n", out.c_str());
+  return Status::ok();
+}
+
+Status run_session_response(const std::string& session_dir, const pipeline::ResponseCalibrationOptions& options) {
+  auto session = capture::Session::open(session_dir);
+  if (!session) return session.error();
+  auto cal = pipeline::calibrate_session_response(session.value(), options);
+  if (!cal) return cal.error();
+  const auto& r = cal->response;
+  std::printf("bracket of view %d (%d codes covered)\n", cal->view, cal->codes_covered);
+  for (int c = 0; c < 3; ++c)
+    std::printf("channel %c: %d samples, rms log residual %.4f, inverse(mid) %.4f\n", "RGB"[c], r.samples[c],
+                r.rms_residual_log[c], r.curve.inverse(c, r.curve.max_code() / 2.0));
+  std::printf("wrote %s\n", session->layout().response_file().c_str());
   return Status::ok();
 }
 
@@ -147,11 +195,13 @@ Status run_merge(const std::string& response_path, int bits, const std::vector<s
   return Status::ok();
 }
 
-Status run_extrinsics(const std::string& session_dir, const std::string& camera_path, double max_error_px) {
+Status run_extrinsics(const std::string& session_dir, const std::string& camera_path, double max_error_px,
+                      bool exclude_unposed) {
   auto session = capture::Session::open(session_dir);
   if (!session) return session.error();
   pipeline::GeometryCalibrationOptions opt;
   opt.max_error_px = max_error_px;
+  opt.exclude_unposed = exclude_unposed;
   if (!camera_path.empty()) {
     auto cam = CameraModel::load_yaml(camera_path);
     if (!cam) return cam.error();
@@ -167,7 +217,9 @@ Status run_extrinsics(const std::string& session_dir, const std::string& camera_
     else
       std::printf("%8s  %s\n", "-", v.error.c_str());
   }
-  std::printf("%d of %zu views usable (max error %.3f px)\n", cal->usable_views, cal->views.views.size(), max_error_px);
+  std::printf("%d of %zu views usable (max error %.3f px); the others are %s\n", cal->usable_views,
+              cal->views.views.size(), max_error_px,
+              exclude_unposed ? "left out of the observation map" : "posed by the kinematic fit");
   if (cal->kinematics) {
     const auto& k = *cal->kinematics;
     const rig::model::Params p = rig::model::to_params(k.geometry);
@@ -230,9 +282,10 @@ const CommandRegistrar registrar([](CLI::App& root) {
   calib->require_subcommand(1);
 
   {
-    auto* cmd = calib->add_subcommand("intrinsics", "intrinsics (Brown-Conrady) from chessboard photographs");
+    auto* cmd = calib->add_subcommand(
+        "intrinsics", "intrinsics (Brown-Conrady) from chessboard photographs or a session of a chessboard");
     struct Args {
-      std::string board = "9x6", out = "camera.yml";
+      std::string board = "9x6", out = "camera.yml", session;
       double square_m = 0.025;
       std::vector<std::string> images;
       calib::IntrinsicsOptions opt;
@@ -242,28 +295,55 @@ const CommandRegistrar registrar([](CLI::App& root) {
     cmd->add_option("--square", a->square_m, "square size, metres")->capture_default_str();
     cmd->add_option("--out", a->out, "OpenCV YAML to write")->capture_default_str();
     cmd->add_flag("--fix-aspect", a->opt.fix_aspect_ratio, "hold fx = fy (CALIB_FIX_ASPECT_RATIO)");
+    cmd->add_flag("--fix-k3", a->opt.fix_k3, "hold k3 = 0 (CALIB_FIX_K3; few views, or small distortion)");
     cmd->add_flag("--drop-outliers", a->opt.drop_outliers, "calibrate again without outlier views");
     cmd->add_option("--outlier-factor", a->opt.outlier_factor, "outlier if view RMS > factor x median")
         ->capture_default_str();
     cmd->add_option("--subpix-half-window", a->opt.subpix_half_window,
                     "cornerSubPix half window, px (OpenCV's samples use 11)")
         ->capture_default_str();
-    cmd->add_option("images", a->images, "chessboard images")->required();
-    cmd->callback([a] { finish(run_intrinsics(a->board, a->square_m, a->images, a->out, a->opt)); });
+    auto* images = cmd->add_option("images", a->images, "chessboard images");
+    cmd->add_option("--session", a->session,
+                    "a session of a chessboard (e.g. the built-in scene chessboard: --board 8x6 --square 0.16): "
+                    "per view, the longest exposure with at most 0.5% saturated pixels")
+        ->excludes(images);
+    cmd->callback([a] {
+      if (!a->session.empty())
+        finish(run_session_intrinsics(a->session, a->board, a->square_m, a->out, a->opt));
+      else if (a->images.empty())
+        finish(usage("calib intrinsics wants chessboard images or --session SESSION"));
+      else
+        finish(run_intrinsics(a->board, a->square_m, a->images, a->out, a->opt));
+    });
   }
   {
-    auto* cmd = calib->add_subcommand("response", "response curve (Debevec-Malik) from a bracket of a static scene");
+    auto* cmd = calib->add_subcommand(
+        "response", "response curve (Debevec-Malik) from a bracket of a static scene, or from a session's brackets");
     struct Args {
       std::vector<std::string> bracket;
-      std::string out = "response.json";
-      calib::ResponseRecoveryOptions opt;
+      std::string out = "response.json", session;
+      pipeline::ResponseCalibrationOptions session_options;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("--bracket", a->bracket, "IMAGE:EXPOSURE_S items (seconds, e.g. a.png:1/250)")->required();
-    cmd->add_option("--out", a->out, "response JSON to write")->capture_default_str();
-    cmd->add_option("--lambda", a->opt.lambda, "smoothness weight")->capture_default_str();
-    cmd->add_option("--samples", a->opt.samples, "pixels per channel (0: automatic)")->capture_default_str();
-    cmd->callback([a] { finish(run_response(a->bracket, a->out, a->opt)); });
+    auto* session =
+        cmd->add_option("session", a->session,
+                        "session folder: recover the curve from one view's bracket -> SESSION/calib/response.json");
+    cmd->add_option("--bracket", a->bracket, "IMAGE:EXPOSURE_S items (seconds, e.g. a.png:1/250)")->excludes(session);
+    cmd->add_option("--out", a->out, "response JSON to write (with --bracket)")->capture_default_str();
+    cmd->add_option("--view", a->session_options.view,
+                    "with SESSION: the view whose bracket is used (default: of 16 views spread over the session, the "
+                    "one covering the most codes)");
+    cmd->add_option("--lambda", a->session_options.recovery.lambda, "smoothness weight")->capture_default_str();
+    cmd->add_option("--samples", a->session_options.recovery.samples, "pixels per channel (0: automatic)")
+        ->capture_default_str();
+    cmd->callback([a] {
+      if (!a->session.empty())
+        finish(run_session_response(a->session, a->session_options));
+      else if (a->bracket.empty())
+        finish(usage("calib response wants SESSION or --bracket IMAGE:EXPOSURE_S ..."));
+      else
+        finish(run_response(a->bracket, a->out, a->session_options.recovery));
+    });
   }
 
   {
@@ -272,15 +352,18 @@ const CommandRegistrar registrar([](CLI::App& root) {
     struct Args {
       std::string session, camera;
       double max_error_px = 1.0;
+      bool exclude_unposed = false;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("session", a->session, "session folder")->required();
     cmd->add_option("--camera", a->camera,
-                    "camera model YAML (vdrig calib intrinsics); default SESSION/calib/camera.yml, or the "
-                    "simulator's camera for a simulated session");
+                    "camera model YAML (vdrig calib intrinsics); default SESSION/calib/camera.yml");
     cmd->add_option("--max-error-px", a->max_error_px, "exclude views with a larger RMS reprojection error")
         ->capture_default_str();
-    cmd->callback([a] { finish(run_extrinsics(a->session, a->camera, a->max_error_px)); });
+    cmd->add_flag("--exclude-unposed", a->exclude_unposed,
+                  "leave views without a usable marker pose out of the observation map (default: pose them by the "
+                  "kinematic fit)");
+    cmd->callback([a] { finish(run_extrinsics(a->session, a->camera, a->max_error_px, a->exclude_unposed)); });
   }
 
   // `vdrig hdr SESSION` merges a session (resumable: merged views are kept); `vdrig hdr merge ...` merges files.

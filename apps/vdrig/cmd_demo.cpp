@@ -1,4 +1,6 @@
-// vdrig demo: the whole pipeline on the simulated rig, start to finish, writing images a person can look at.
+// vdrig demo: the whole pipeline on the simulated rig, start to finish, writing images a person can look at. It
+// calibrates as a real rig must (intrinsics from a chessboard session, the response curve from the brackets, the poses
+// from the markers): nothing is taken from the simulator's configuration.
 #include <fmt/format.h>
 
 #include <chrono>
@@ -24,15 +26,22 @@ struct DemoArgs {
   std::string out = "out/demo";
   std::string scene = "patchwork";
   std::string scheme = capture::kDefaultScheme;
-  std::string resolution = "128x128";  // SxT texels, as `vdrig fit --res`
-  int holdout = 3;                     // views held out of the fit, as `vdrig fit --holdout`
+  std::string chessboard_scheme = "latlong:4:65";  // the intrinsics target's views (fewer: a quicker, rougher camera)
+  std::string resolution = "128x128";              // SxT texels, as `vdrig fit --res`
+  int holdout = 3;                                 // views held out of the fit, as `vdrig fit --holdout`
 };
 
 constexpr const char* kDemoMark = "vdrig demo";  // manifest extra "created_by" of a session the demo made
 
+/// The demo's intrinsics target: the built-in scene `chessboard` (9 x 7 squares of 160 mm: 8 x 6 inner corners),
+/// seen from rings up to 65 degrees (DemoArgs::chessboard_scheme), two exposures (the longer one unsaturated on its
+/// white squares).
+constexpr int kChessboardCols = 8, kChessboardRows = 6;
+constexpr double kChessboardSquareM = 0.160;
+
 /// Makes room for the demo's session. Running the demo again replaces the session an earlier demo made, but never
 /// deletes what vdrig did not create: a folder that is not a demo session (its manifest says who made it), or one
-/// holding anything the demo does not write (a notes file, calib/, a map fitted by hand), is refused and left alone.
+/// holding anything the demo does not write (a notes file, a map fitted by hand), is refused and left alone.
 Status clear_earlier_demo(const fs::path& session_dir) {
   std::error_code ec;
   if (!fs::exists(session_dir, ec) || fs::is_empty(session_dir, ec)) return Status::ok();
@@ -46,11 +55,9 @@ Status clear_earlier_demo(const fs::path& session_dir) {
       (*manifest)["extra"].value("created_by", "") != kDemoMark)
     return refuse("is not a session `vdrig demo` made");
   // What the demo writes, folder by folder (SessionLayout), and the file types in each.
-  const std::map<fs::path, std::string> demo_folders = {{layout.frames_dir(), ".png"},
-                                                        {layout.hdr_dir(), ".exr"},
-                                                        {layout.obsmap_dir(), ".vdobs"},
-                                                        {layout.maps_dir(), ".exr"},
-                                                        {layout.renders_dir(), ".png"}};
+  const std::map<fs::path, std::set<std::string>> demo_folders = {
+      {layout.frames_dir(), {".png"}},   {layout.hdr_dir(), {".exr"}},  {layout.calib_dir(), {".json", ".yml"}},
+      {layout.obsmap_dir(), {".vdobs"}}, {layout.maps_dir(), {".exr"}}, {layout.renders_dir(), {".png"}}};
   const std::set<fs::path> demo_files = {layout.manifest_file(), layout.journal_file(), layout.lock_file()};
   // What `vdrig compare` writes into the demo session by default: renders/compare/compare.json and a folder of PNGs
   // per map.
@@ -66,7 +73,7 @@ Status clear_earlier_demo(const fs::path& session_dir) {
     if (folder == demo_folders.end() || !entry.is_directory()) return refuse("holds " + entry.path().string());
     for (const auto& file : fs::recursive_directory_iterator(entry.path(), ec)) {
       if (file.is_regular_file() && file.path().parent_path() == entry.path() &&
-          file.path().extension() == folder->second)
+          folder->second.count(file.path().extension().string()))
         continue;
       if (!compare_output(file.path()) && file.path() != compare) return refuse("holds " + file.path().string());
     }
@@ -103,9 +110,48 @@ Status run_demo(const DemoArgs& a) {
   auto parsed_res = parse_resolution(resolution);
   if (!parsed_res) return parsed_res.error();
   const std::pair<int, int> res = parsed_res.value();
+  const fs::path chessboard_dir = out / "chessboard";
+  VDRIG_TRY(clear_earlier_demo(chessboard_dir));
   VDRIG_TRY(clear_earlier_demo(session_dir));
+  constexpr int kSteps = 9;
 
-  std::printf("1/5 capture: scene %s, scheme %s -> %s\n", a.scene.c_str(), a.scheme.c_str(), session_dir.c_str());
+  // Intrinsics as on a real rig: a session of a chessboard, calibrated from its images.
+  std::printf("1/%d chessboard capture: scene chessboard, scheme %s -> %s\n", kSteps, a.chessboard_scheme.c_str(),
+              chessboard_dir.c_str());
+  pipeline::CaptureRequest board_req;
+  board_req.out_dir = chessboard_dir;
+  board_req.manifest_extra = {{"created_by", kDemoMark}};
+  board_req.rig_config = sim::sim_rig_config({{"scene", "chessboard"}});
+  board_req.scheme = a.chessboard_scheme;
+  board_req.exposures_s = {1.0, 0.25};
+  ProgressLine board_progress;
+  board_req.on_view = [&board_progress](int done, int total) {
+    board_progress.update(done, total, "    views %d/%d", done, total);
+  };
+  auto board_session = pipeline::capture_session(board_req);
+  board_progress.finish();
+  if (!board_session) return board_session.error();
+  end_step("chessboard capture");
+
+  const fs::path camera_file = board_session->layout().camera_file();
+  std::printf("2/%d intrinsics from the chessboard views (%dx%d inner corners of %.0f mm, k3 fixed) -> %s\n", kSteps,
+              kChessboardCols, kChessboardRows, kChessboardSquareM * 1000, camera_file.c_str());
+  pipeline::SessionIntrinsicsOptions intrinsics_options;
+  intrinsics_options.board_cols = kChessboardCols;
+  intrinsics_options.board_rows = kChessboardRows;
+  intrinsics_options.square_m = kChessboardSquareM;
+  intrinsics_options.intrinsics.fix_k3 = true;
+  auto intrinsics = pipeline::calibrate_session_intrinsics(board_session.value(), intrinsics_options);
+  if (!intrinsics) return intrinsics.error();
+  fs::create_directories(camera_file.parent_path(), ec);
+  VDRIG_TRY(intrinsics->save_yaml(camera_file));
+  const CameraModel& cam = intrinsics->camera;
+  std::printf("    fx %.1f fy %.1f cx %.1f cy %.1f k1 %.3f k2 %.3f, RMS %.2f px over %zu views\n", cam.fx, cam.fy,
+              cam.cx, cam.cy, cam.k1, cam.k2, intrinsics->rms_px, intrinsics->used_views());
+  end_step("intrinsics");
+
+  std::printf("3/%d capture: scene %s, scheme %s -> %s\n", kSteps, a.scene.c_str(), a.scheme.c_str(),
+              session_dir.c_str());
   pipeline::CaptureRequest req;
   req.out_dir = session_dir;
   req.manifest_extra = {{"created_by", kDemoMark}};
@@ -123,7 +169,13 @@ Status run_demo(const DemoArgs& a) {
   end_step("capture");
 
   const capture::SessionLayout layout = session->layout();
-  std::printf("2/5 HDR merge of %d brackets -> %s\n", n_views, layout.hdr_dir().c_str());
+  std::printf("4/%d response curve from the brackets (Debevec-Malik) -> %s\n", kSteps, layout.response_file().c_str());
+  auto response = pipeline::calibrate_session_response(session.value());
+  if (!response) return response.error();
+  std::printf("    bracket of view %d, %d codes covered\n", response->view, response->codes_covered);
+  end_step("response");
+
+  std::printf("5/%d HDR merge of %d brackets -> %s\n", kSteps, n_views, layout.hdr_dir().c_str());
   pipeline::HdrMergeOptions hdr_options;
   ProgressLine hdr_progress;
   hdr_options.on_view = [&hdr_progress](int done, int total) {
@@ -134,6 +186,16 @@ Status run_demo(const DemoArgs& a) {
   if (!merged) return merged.error();
   end_step("HDR");
 
+  std::printf("6/%d extrinsics from the corner markers and the rig's kinematic fit -> %s\n", kSteps,
+              layout.views_file().c_str());
+  pipeline::GeometryCalibrationOptions geometry_options;
+  geometry_options.camera = intrinsics->camera;
+  auto geometry = pipeline::calibrate_session_geometry(session.value(), geometry_options);
+  if (!geometry) return geometry.error();
+  std::printf("    %d of %zu views posed by their markers, the others by the kinematic fit\n", geometry->usable_views,
+              geometry->views.views.size());
+  end_step("extrinsics");
+
   // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
   // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
   // ones out and measures itself on them (holdout.R/G/B).
@@ -142,7 +204,7 @@ Status run_demo(const DemoArgs& a) {
     return make_error(ErrorCode::kInvalidArgument, "--holdout " + std::to_string(a.holdout) +
                                                        ": the session has only " + std::to_string(n_views) + " views");
 
-  std::printf("3/5 observation map %dx%d from %d views (%zu held out)\n", res.first, res.second, n_views,
+  std::printf("7/%d observation map %dx%d from %d views (%zu held out)\n", kSteps, res.first, res.second, n_views,
               held_out.size());
   auto obs_path = pipeline::session_obsmap_file(session.value(), res.first, res.second);
   if (!obs_path) return obs_path.error();
@@ -150,7 +212,7 @@ Status run_demo(const DemoArgs& a) {
   if (!obs) return obs.error();
   end_step("observation map");
 
-  std::printf("4/5 fit phong:1 per texel\n");
+  std::printf("8/%d fit phong:1 per texel\n", kSteps);
   fitting::MapFitOptions fit_options;
   fit_options.held_out = held_out;
   ProgressLine fit_progress;
@@ -173,7 +235,7 @@ Status run_demo(const DemoArgs& a) {
   VDRIG_TRY(map->write(map_path));
   end_step("fit");
 
-  std::printf("5/5 render the held-out views and compare them with the photographs (as vdrig compare)\n");
+  std::printf("9/%d render the held-out views and compare them with the photographs (as vdrig compare)\n", kSteps);
   // The comparison is `vdrig compare SESSION --maps phong:1 --views held-out`'s own (pipeline::compare_maps: both
   // images tone mapped from HDR, |render - photo| over the surface pixels with exact radiance), written where that
   // command writes it, so the demo and compare print one figure for one view.
@@ -190,6 +252,13 @@ Status run_demo(const DemoArgs& a) {
   end_step("compare");
   std::printf("\nparameter map: %s\nsession:       %s\nimages:        %s\n", map_path.c_str(), session_dir.c_str(),
               compared->json_file.parent_path().c_str());
+  // Which calibration the figures rest on: every file made from the images, none from the simulator's truth.
+  std::printf(
+      "calibration (from the images, not the simulator's truth):\n  camera:   %s (chessboard, %zu views; copied to "
+      "calib/ of the session)\n"
+      "  response: %s (bracket of view %d)\n  poses:    %s (%d of %zu views by markers)\n",
+      camera_file.c_str(), intrinsics->used_views(), layout.response_file().c_str(), response->view,
+      layout.views_file().c_str(), geometry->usable_views, geometry->views.views.size());
   std::string breakdown;
   for (const auto& [name, seconds] : steps)
     breakdown += (breakdown.empty() ? "" : ", ") + name + " " + fmt::format("{:.1f}", seconds) + " s";
@@ -200,11 +269,16 @@ Status run_demo(const DemoArgs& a) {
 const CommandRegistrar kDemo([](CLI::App& root) {
   auto args = std::make_shared<DemoArgs>();
   auto* cmd =
-      root.add_subcommand("demo", "Simulated capture -> HDR -> observation map -> Phong fit -> rendered images");
+      root.add_subcommand("demo",
+                          "Simulated rig, calibrated from its images (chessboard intrinsics, response, markers) -> HDR "
+                          "-> observation map -> Phong fit -> rendered images");
   cmd->add_option("--out", args->out, "output folder")->capture_default_str();
   cmd->add_option("--scene", args->scene, "simulated scene: a built-in name or a scene FILE.json")
       ->capture_default_str();
   cmd->add_option("--scheme", args->scheme, "sampling scheme (see docs/sampling.md)")->capture_default_str();
+  cmd->add_option("--chessboard-scheme", args->chessboard_scheme,
+                  "sampling scheme of the chessboard session the intrinsics come from")
+      ->capture_default_str();
   cmd->add_option("--res", args->resolution, "parameter map resolution, SxT texels (as vdrig fit --res)")
       ->capture_default_str();
   cmd->add_option("--holdout", args->holdout,

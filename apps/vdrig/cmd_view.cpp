@@ -1,6 +1,6 @@
 // `vdrig view a.exr [b.exr ...] [--session S] [--constrained] [--gamma G] [--frames N --screenshot out.png]`: the
 // interactive viewer (viewer/interactive.hpp, docs/viewer.md). Several maps of one session can be loaded (M cycles
-// them). With a session, the camera is the session's (calibrated, or the simulator's), its captured views can be
+// them). With a session, the camera is the session's (from its calibration, calib/), its captured views can be
 // stepped through, shown as photographs or differences (D), and clicked texels inspected with their observations;
 // without, a 1024x768 pinhole 2500 mm above the surface.
 #include <cstdio>

@@ -12,11 +12,12 @@ Result<SessionData> open_session_data(const std::string& dir) {
   if (!session) return session.error();
   auto geometry = pipeline::session_geometry(session.value());
   if (!geometry) return geometry.error();
-  int excluded = 0;
+  int kinematic = 0, excluded = 0;
+  for (const bool k : geometry->kinematic_pose) kinematic += k ? 1 : 0;
   for (const bool e : geometry->excluded) excluded += e ? 1 : 0;
-  log::get("app")->info("session {}: {} views ({} posed by the kinematic fit only), camera {}x{} ({})", dir,
-                        geometry->poses.size(), excluded, geometry->camera.width, geometry->camera.height,
-                        geometry->source);
+  log::get("app")->info("session {}: {} views ({} posed by the kinematic fit only, {} excluded), camera {}x{} ({})",
+                        dir, geometry->poses.size(), kinematic, excluded, geometry->camera.width,
+                        geometry->camera.height, geometry->source);
   return SessionData{std::move(session.value()), std::move(geometry.value())};
 }
 

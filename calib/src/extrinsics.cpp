@@ -313,6 +313,7 @@ nlohmann::json to_json(const ViewsFile& f) {
   j["format_version"] = kViewsFormatVersion;
   j["camera"] = f.camera_file;
   j["max_error_px"] = f.max_error_px;
+  j["exclude_unposed"] = f.exclude_unposed;
   j["marker_radius_mm"] = f.layout.radius_mm;
   j["marker_centres_mm"] = nlohmann::json::array();
   for (const auto& c : f.layout.centres_mm) j["marker_centres_mm"].push_back(vec_json(c));
@@ -350,6 +351,7 @@ Result<ViewsFile> views_from_json(const nlohmann::json& j) {
     ViewsFile f;
     f.camera_file = j.value("camera", "camera.yml");
     f.max_error_px = j.value("max_error_px", 1.0);
+    f.exclude_unposed = j.value("exclude_unposed", false);
     f.layout.radius_mm = j.at("marker_radius_mm").get<double>();
     for (const auto& c : j.at("marker_centres_mm")) {
       auto v = vec_from_json(c, "marker centre");

@@ -26,11 +26,12 @@ struct Fit {
 };
 
 Fit run_calibration(const std::vector<std::vector<cv::Point3f>>& object,
-                    const std::vector<std::vector<cv::Point2f>>& image, cv::Size size, bool fix_aspect) {
+                    const std::vector<std::vector<cv::Point2f>>& image, cv::Size size, bool fix_aspect, bool fix_k3) {
   Fit f;
   f.K = cv::Mat::eye(3, 3, CV_64F);
   int flags = 0;
   if (fix_aspect) flags |= cv::CALIB_FIX_ASPECT_RATIO;  // fx / fy held at K's initial 1
+  if (fix_k3) flags |= cv::CALIB_FIX_K3;                // k3 held at 0
   cv::Mat std_ext;
   f.rms = cv::calibrateCamera(object, image, size, f.K, f.D, f.rvecs, f.tvecs, f.std_dev, std_ext, f.per_view, flags,
                               cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, DBL_EPSILON));
@@ -80,6 +81,7 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
   res.board_rows = board_rows;
   res.square_m = square_m;
   res.fix_aspect_ratio = opt.fix_aspect_ratio;
+  res.fix_k3 = opt.fix_k3;
   std::vector<cv::Point3f> board;
   for (int r = 0; r < board_rows; ++r)
     for (int c = 0; c < board_cols; ++c)
@@ -129,7 +131,7 @@ Result<IntrinsicsResult> calibrate_intrinsics(std::span<const cv::Mat> images, i
       return bad("the board was found in " + std::to_string(object.size()) + " image(s); at least 3 are needed");
     Fit fit;
     try {
-      fit = run_calibration(object, image, size, opt.fix_aspect_ratio);
+      fit = run_calibration(object, image, size, opt.fix_aspect_ratio, opt.fix_k3);
     } catch (const cv::Exception& e) {
       return make_error(ErrorCode::kInternal, std::string("cv::calibrateCamera: ") + e.what());
     }
@@ -200,7 +202,9 @@ Status IntrinsicsResult::save_yaml(const std::filesystem::path& path) const {
   return camera.save_yaml(path, rms_px, [this](cv::FileStorage& fs) {
     fs << "nframes" << static_cast<int>(used_views());
     fs << "board_width" << board_cols << "board_height" << board_rows << "square_size" << square_m;
-    fs << "flags" << (fix_aspect_ratio ? static_cast<int>(cv::CALIB_FIX_ASPECT_RATIO) : 0);
+    fs << "flags"
+       << ((fix_aspect_ratio ? static_cast<int>(cv::CALIB_FIX_ASPECT_RATIO) : 0) |
+           (fix_k3 ? static_cast<int>(cv::CALIB_FIX_K3) : 0));
     std::vector<double> errs;
     std::vector<int> used_idx, outliers;
     for (const auto& v : views) {

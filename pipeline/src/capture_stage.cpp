@@ -1,10 +1,10 @@
 #include "vdrig/pipeline/capture_stage.hpp"
 
-#include "ground_truth.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 
 namespace vdrig::pipeline {
@@ -15,14 +15,10 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   if (!rig) return rig.error();
   auto samples = capture::generate(req.scheme);
   if (!samples) return samples.error();
-  auto truth = ground_truth_of(req.rig_config);
-  if (!truth) return truth.error();
-  // Aimed with the config's stated "geometry" when it has one (as vdrig capture is); otherwise, unlike vdrig capture,
-  // with the simulator's truth: this helper makes the reference sessions of the demo and the pipeline tests, whose
-  // views must land where they were planned (test_calibrated's fixture is measured on them).
+  // Aimed as `vdrig capture` aims: with the config's stated "geometry", else the ideal rig at its distance; never
+  // with the simulator's hidden truth (an imperfect simulated rig misses its planned directions until calibrated).
   auto geometry = capture::geometry_from_rig_config(req.rig_config);
   if (!geometry) return geometry.error();
-  if (!req.rig_config.contains("geometry") && *truth) geometry = (*truth)->geometry;
   const auto plan = capture::plan_targets(geometry.value(), rig->stage->spec(), samples->directions);
   for (const auto& u : plan.unreachable) {
     const SphericalDir s = spherical_from_direction(u.direction);
@@ -39,9 +35,14 @@ Result<capture::Session> capture_session(const CaptureRequest& req) {
   manifest.extra = req.manifest_extra;
   for (const auto& t : plan.reachable)
     manifest.views.push_back({static_cast<int>(manifest.views.size()), t.direction, t.pan_tilt});
-  if (*truth) {
-    manifest.surface_width_mm = (*truth)->surface_width_mm;
-    manifest.surface_height_mm = (*truth)->surface_height_mm;
+  if (req.rig_config.contains("sim")) {
+    // The sample's size is the rig's configuration (what a user measures with a ruler), not calibration output.
+    auto config = sim::SimConfig::from_json(req.rig_config["sim"]);
+    if (!config) return config.error();
+    auto scene = sim::make_scene(config->scene);
+    if (!scene) return scene.error();
+    manifest.surface_width_mm = scene->width_mm;
+    manifest.surface_height_mm = scene->height_mm;
   }
   auto session = capture::Session::create(req.out_dir, manifest);
   if (!session) return session.error();

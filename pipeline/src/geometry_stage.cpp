@@ -1,8 +1,8 @@
 #include "vdrig/pipeline/geometry_stage.hpp"
 
 #include <algorithm>
+#include <opencv2/core.hpp>
 
-#include "ground_truth.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/core/log.hpp"
@@ -19,55 +19,44 @@ PanTilt measured_pan_tilt(const capture::Session& session, const capture::Planne
   return frames.empty() ? view.target : frames.front().measured;
 }
 
-/// Calibrated geometry from SESSION/calib/, or nullopt when the session has none.
-std::optional<Result<SessionGeometry>> calibrated_geometry(const capture::Session& session) {
+}  // namespace
+
+Result<SessionGeometry> session_geometry(const capture::Session& session) {
   const capture::SessionLayout layout = session.layout();
-  if (!fs::exists(layout.views_file()) || !fs::exists(layout.camera_file())) return std::nullopt;
+  if (!fs::exists(layout.views_file()) || !fs::exists(layout.camera_file()))
+    return make_error(ErrorCode::kNotFound,
+                      "session " + session.dir().string() +
+                          " has no calibrated geometry (calib/views.json and calib/camera.yml): run `vdrig calib "
+                          "extrinsics " +
+                          session.dir().string() + " --camera CAMERA.yml` (CAMERA.yml from `vdrig calib intrinsics`)");
   auto views = calib::read_views_json(layout.views_file());
-  if (!views) return Result<SessionGeometry>(views.error());
+  if (!views) return views.error();
   auto camera = CameraModel::load_yaml(layout.calib_dir() / views->camera_file);
-  if (!camera) return Result<SessionGeometry>(camera.error());
+  if (!camera) return camera.error();
   std::optional<rig::RigGeometry> kinematics;
   if (!views->kinematics.is_null()) {
     auto g = calib::KinematicFit::geometry_from_json(views->kinematics);
-    if (!g) return Result<SessionGeometry>(g.error());
+    if (!g) return g.error();
     kinematics = g.value();
   }
   SessionGeometry g;
   g.camera = camera.value();
-  g.source = "calibrated";
   for (const auto& view : session.manifest().views) {
     const auto it = std::find_if(views->views.begin(), views->views.end(),
                                  [&](const calib::ViewRecord& r) { return r.index == view.index; });
     if (it != views->views.end() && it->usable()) {
       g.poses.push_back(it->extrinsics->pose);
+      g.kinematic_pose.push_back(false);
       g.excluded.push_back(false);
       continue;
     }
     if (!kinematics)
-      return Result<SessionGeometry>(make_error(
-          ErrorCode::kNotFound, "view " + std::to_string(view.index) +
-                                    " has no calibrated pose and views.json has no kinematic fit to pose it by"));
+      return make_error(ErrorCode::kNotFound, "view " + std::to_string(view.index) +
+                                                  " has no calibrated pose and views.json has no kinematic fit to "
+                                                  "pose it by");
     g.poses.push_back(rig::surface_pose(*kinematics, measured_pan_tilt(session, view)));
-    g.excluded.push_back(true);
-  }
-  return Result<SessionGeometry>(std::move(g));
-}
-
-}  // namespace
-
-Result<SessionGeometry> session_geometry(const capture::Session& session) {
-  if (auto calibrated = calibrated_geometry(session)) return std::move(*calibrated);
-  auto truth = ground_truth_of(session.manifest().rig_config);
-  if (!truth) return truth.error();
-  if (!*truth)
-    return make_error(ErrorCode::kNotFound, "session has no calibrated geometry (calib/) and is not simulated");
-  SessionGeometry g;
-  g.camera = (*truth)->camera;
-  g.source = "simulator ground truth";
-  for (const auto& view : session.manifest().views) {
-    g.poses.push_back((*truth)->pose_at(measured_pan_tilt(session, view)));
-    g.excluded.push_back(false);
+    g.kinematic_pose.push_back(true);
+    g.excluded.push_back(views->exclude_unposed);
   }
   return g;
 }
@@ -77,9 +66,6 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
   auto logger = log::get("calib");
   const capture::SessionLayout files = session.layout();
   const auto& rc = session.manifest().rig_config;
-  auto truth_or = ground_truth_of(rc);
-  if (!truth_or) return truth_or.error();
-  const std::optional<GroundTruth>& truth = truth_or.value();
   GeometryCalibration out;
   bool camera_from_session = false;  // calib/camera.yml is kept as is (it may hold the intrinsics' record)
   if (options.camera) {
@@ -89,24 +75,18 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
     if (!c) return c.error();
     out.camera = c.value();
     camera_from_session = true;
-  } else if (truth) {
-    logger->warn("no camera model given: using the simulator's camera (ground-truth intrinsics)");
-    out.camera = truth->camera;
   } else {
     return make_error(ErrorCode::kNotFound,
-                      "no camera model: pass one (vdrig calib intrinsics) or write " + files.camera_file().string());
+                      "no camera model: pass one (--camera CAMERA.yml, from `vdrig calib intrinsics`) or write " +
+                          files.camera_file().string());
   }
   std::string why;
   if (!out.camera.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "camera model: " + why);
 
-  calib::MarkerLayout layout;
-  if (options.layout) {
-    layout = *options.layout;
-  } else if (truth) {
-    layout = truth->markers;
-  } else {
-    layout = calib::MarkerLayout::corners(session.manifest().surface_width_mm, session.manifest().surface_height_mm);
-  }
+  const calib::MarkerLayout layout =
+      options.layout
+          ? *options.layout
+          : calib::MarkerLayout::corners(session.manifest().surface_width_mm, session.manifest().surface_height_mm);
   if (!layout.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, "marker layout: " + why);
 
   // The nominal rig, the views' first guess: the geometry the session was planned with (its config's "geometry", or
@@ -121,6 +101,7 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
   out.views.layout = layout;
   out.views.camera_file = files.camera_file().filename().string();  // relative to calib/, as views.json records it
   out.views.max_error_px = options.max_error_px;
+  out.views.exclude_unposed = options.exclude_unposed;
   std::vector<calib::KinematicObservation> observations;
   for (const auto& view : session.manifest().views) {
     calib::ViewRecord rec;
@@ -167,6 +148,49 @@ Result<GeometryCalibration> calibrate_session_geometry(const capture::Session& s
   VDRIG_TRY(calib::write_views_json(files.views_file(), out.views));
   logger->info("extrinsics: {} of {} views usable", out.usable_views, out.views.views.size());
   return out;
+}
+
+Result<calib::IntrinsicsResult> calibrate_session_intrinsics(const capture::Session& session,
+                                                             const SessionIntrinsicsOptions& options) {
+  auto logger = log::get("calib");
+  std::vector<cv::Mat> images;
+  for (const auto& view : session.manifest().views) {
+    if (!session.view_complete(view.index)) continue;
+    auto frames = session.frames_of_view(view.index);
+    std::sort(frames.begin(), frames.end(), [](const capture::FrameRecord& a, const capture::FrameRecord& b) {
+      return a.exposure_s * a.gain > b.exposure_s * b.gain;
+    });
+    cv::Mat chosen;
+    for (const auto& rec : frames) {
+      auto img = session.load_image(rec);
+      if (!img) return img.error();
+      cv::Mat grey;
+      if (img->channels() == 1) {
+        grey = img.value();
+      } else {
+        std::vector<cv::Mat> channels;
+        cv::split(img.value(), channels);
+        grey = channels[1];  // green: the channel closest to luminance, without mixing in a colour conversion
+      }
+      const double max_code = static_cast<double>((1 << rec.bits) - 1);
+      const double saturated = cv::countNonZero(grey >= max_code) / static_cast<double>(grey.total());
+      if (saturated <= options.max_saturated_fraction) {
+        if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U, 255.0 / max_code);
+        chosen = grey;
+        break;
+      }
+    }
+    if (chosen.empty()) {
+      logger->warn("view {}: every exposure has more than {:.1f}% saturated pixels; skipped", view.index,
+                   100 * options.max_saturated_fraction);
+      continue;
+    }
+    images.push_back(chosen);
+  }
+  if (images.empty())
+    return make_error(ErrorCode::kNotFound, "session " + session.dir().string() + " has no usable chessboard view");
+  return calib::calibrate_intrinsics(images, options.board_cols, options.board_rows, options.square_m,
+                                     options.intrinsics);
 }
 
 }  // namespace vdrig::pipeline

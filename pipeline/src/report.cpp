@@ -354,7 +354,7 @@ std::string calibration_section(const ReportData& d) {
   std::string body;
   if (!fs::exists(layout.camera_file())) {
     body += missing("calib/camera.yml (intrinsics: vdrig calib intrinsics, then vdrig calib extrinsics " +
-                    escape_html(d.session->dir().string()) + "); the stages use the simulator's ground truth");
+                    escape_html(d.session->dir().string()) + "); the stages after HDR need it");
   } else if (auto camera = CameraModel::load_yaml(layout.camera_file()); !camera) {
     body += missing("a readable calib/camera.yml: " + escape_html(camera.error().message));
   } else {

@@ -17,8 +17,9 @@ TEST(CliDemo, RefusesANonEmptySessionFolderAndDeletesNothing) {
   fs::create_directories(session / "calib");
   testing::write_text(session / "notes.txt", "my notes\n");
   testing::write_text(session / "calib" / "response.json", "{}\n");
-  const auto r = testing::run_process({testing::vdrig_cli(), "demo", "--out", root.path().string(), "--scheme",
-                                       "latlong:2", "--res", "4x4", "--holdout", "1"});
+  const auto r =
+      testing::run_process({testing::vdrig_cli(), "demo", "--out", root.path().string(), "--scheme", "latlong:2",
+                            "--chessboard-scheme", "latlong:2:65", "--res", "4x4", "--holdout", "1"});
   EXPECT_NE(r.exit_code, 0) << r.out << r.err;
   EXPECT_TRUE(fs::exists(session / "notes.txt")) << "the demo deleted a user's file";
   EXPECT_TRUE(fs::exists(session / "calib" / "response.json")) << "the demo deleted a user's file";
@@ -29,10 +30,17 @@ TEST(CliDemo, RefusesANonEmptySessionFolderAndDeletesNothing) {
 TEST(CliDemo, RunsAgainOverItsOwnSessionButNeverOverAUsersFile) {
   vdrig::test::TempDir root("demo_again");
   const fs::path session = root.path() / "session";
-  const std::vector<std::string> demo = {testing::vdrig_cli(), "demo",  "--out", root.path().string(), "--scheme",
-                                         "latlong:2",          "--res", "4x4",   "--holdout",          "1"};
+  // A 17-view chessboard session (latlong:2:65) instead of the demo's 56: quick, also under ASan.
+  const std::vector<std::string> demo = {
+      testing::vdrig_cli(), "demo",  "--out", root.path().string(), "--scheme", "latlong:2", "--chessboard-scheme",
+      "latlong:2:65",       "--res", "4x4",   "--holdout",          "1"};
   const auto first = testing::run_process(demo, {600.0});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
+  // The demo calibrates from the images (chessboard intrinsics, response, markers) and says which files it used.
+  EXPECT_NE(first.out.find("calibration (from the images"), std::string::npos) << first.out;
+  for (const fs::path& file : {root.path() / "chessboard" / "calib" / "camera.yml", session / "calib" / "response.json",
+                               session / "calib" / "views.json", session / "calib" / "camera.yml"})
+    EXPECT_TRUE(fs::exists(file)) << file;
   // What `vdrig compare` writes into the session by default (renders/compare/) is the demo's too.
   const auto compared = testing::run_process(
       {testing::vdrig_cli(), "compare", session.string(), "--maps", "phong:1", "--views", "held-out"}, {600.0});

@@ -16,6 +16,7 @@
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
+#include "vdrig/test/true_calibration.hpp"
 
 namespace vdrig {
 namespace {
@@ -45,6 +46,9 @@ class MpiFit : public ::testing::Test {
     const ProcessRun captured = vdrig("capture --rig " + (dir_ / "rig.json").string() +
                                       " --scheme latlong:4 --bracket fixed:1,0.25 --out " + session());
     ASSERT_EQ(captured.exit_code, 0) << captured.out;
+    // Not a calibration test: the simulator's truth as the session's calib/ (the stages never take it themselves).
+    const Status calibrated = vdrig::test::write_true_calibration(fs::path(session()));
+    ASSERT_TRUE(calibrated) << calibrated.describe();
     const ProcessRun merged = vdrig("hdr " + session());
     ASSERT_EQ(merged.exit_code, 0) << merged.out;
     // 40 x 40 texels in tiles of 8: 25 tiles, enough to spread over 3 ranks.

@@ -16,6 +16,7 @@
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
+#include "vdrig/test/true_calibration.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -64,6 +65,8 @@ TEST(BetweenTheViews, ANoisySparseSessionOfADiffusePatchInventsNoHighlight) {
   req.exposures_s = {1.0, 0.25, 0.0625};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
+  // The response and the intrinsics are the simulator's (write_true_calibration); the poses are calibrated below.
+  ASSERT_TRUE(vdrig::test::write_true_calibration(session.value()));
   ASSERT_TRUE(merge_session_hdr(session.value()));
   // The geometry as a user gets it: each view's pose from the corner markers in its HDR image and the rig kinematics
   // fitted to them (the intrinsics are the simulator's: a simulated session has no chessboard views of its own).

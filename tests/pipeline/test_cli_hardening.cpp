@@ -89,12 +89,15 @@ TEST_F(CliHardening, SessionCalibrationFileThatIsADirectoryIsRefused) {
   // calib/views.json (and calib/response.json) as directories, in a copy of the session.
   const fs::path s = dir_ / "dir_views";
   fs::copy(session(), s, fs::copy_options::recursive);
+  fs::remove(s / "calib" / "views.json");
+  fs::remove(s / "calib" / "camera.yml");
   fs::create_directories(s / "calib" / "views.json");
   fs::create_directories(s / "calib" / "camera.yml");
   expect_refused(vdrig("obsmap build '" + s.string() + "' --res 8x8"), "is a directory");
   const fs::path r = dir_ / "dir_response";
   fs::copy(session(), r, fs::copy_options::recursive);
   fs::remove_all(r / "hdr");
+  fs::remove(r / "calib" / "response.json");
   fs::create_directories(r / "calib" / "response.json");
   expect_refused(vdrig("hdr '" + r.string() + "'"), "is a directory");
 }

@@ -11,6 +11,7 @@
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/test/temp_dir.hpp"
+#include "vdrig/test/true_calibration.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::pipeline {
@@ -191,6 +192,7 @@ TEST_F(Compare, PhongOneFromHeldOutViewsIsCloseToThePhotographs) {
   req.exposures_s = {1.0, 0.25, 0.0625};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
+  ASSERT_TRUE(vdrig::test::write_true_calibration(session.value()));
   ASSERT_TRUE(merge_session_hdr(session.value()));
   const int n = static_cast<int>(session->manifest().views.size());
   auto obs = build_session_obsmap(session.value(), 32, 32);

@@ -9,6 +9,7 @@
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
+#include "vdrig/test/true_calibration.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::pipeline {
@@ -30,6 +31,8 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   req.exposures_s = {1.0, 0.25, 0.0625};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
+  // Not a calibration test: the simulator's truth as calib/ (vdrig demo runs the real calibration chain).
+  ASSERT_TRUE(vdrig::test::write_true_calibration(session.value()));
   const int n = static_cast<int>(session->manifest().views.size());
   ASSERT_GE(n, 30);
   ASSERT_EQ(session->completed_view_count(), n);
@@ -120,6 +123,7 @@ TEST_F(EndToEnd, StreamedObservationMapFileMatchesTheInMemoryMap) {
   req.exposures_s = {0.25};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
+  ASSERT_TRUE(vdrig::test::write_true_calibration(session.value()));
   ASSERT_TRUE(merge_session_hdr(session.value()));
   const int n = static_cast<int>(session->manifest().views.size());
   const std::vector<int> views = {n - 1, 0, 2};  // any subset, any order

@@ -11,6 +11,7 @@
 
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/rig/kinematics.hpp"
+#include "vdrig/sim/checkerboard.hpp"
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene_file.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -182,10 +183,10 @@ bool bit_identical(const cv::Mat& a, const cv::Mat& b) {
 }
 
 TEST(SceneFiles, BuiltinScenesAreTheirFormerDefinitionsAndRenderBitIdentically) {
-  ASSERT_EQ(scene_names(), (std::vector<std::string>{"patchwork", "bands", "lights2", "softbox"}));
+  ASSERT_EQ(scene_names(), (std::vector<std::string>{"patchwork", "bands", "lights2", "softbox", "chessboard"}));
   const CameraModel cam{160, 120, 200.0, 200.0, 80.3, 59.2, -0.08, 0.02, 0.0004, -0.0002, 0.0};
   const RayTable rays(cam, 2);
-  for (const std::string& name : scene_names()) {
+  for (const std::string name : {"patchwork", "bands", "lights2", "softbox"}) {
     SCOPED_TRACE(name);
     const auto loaded = make_scene(name);
     ASSERT_TRUE(loaded.is_ok()) << loaded.error().message;
@@ -196,6 +197,22 @@ TEST(SceneFiles, BuiltinScenesAreTheirFormerDefinitionsAndRenderBitIdentically) 
       EXPECT_TRUE(bit_identical(render_radiance(*loaded, rays, pose), render_radiance(reference, rays, pose)));
     }
   }
+}
+
+TEST(SceneFiles, ChessboardIsTheCheckerboardTargetOf9x7SquaresOf160Millimetres) {
+  // The intrinsics target `vdrig demo` captures: 8 x 6 inner corners, evenly lit (ambient only), as
+  // checkerboard_scene makes it.
+  CheckerboardSpec spec;
+  spec.cols = 9;
+  spec.rows = 7;
+  spec.square_mm = 160.0;
+  spec.margin_mm = 80.0;
+  const auto loaded = make_scene("chessboard");
+  ASSERT_TRUE(loaded.is_ok()) << loaded.error().message;
+  Scene expected = checkerboard_scene(spec);
+  expected.name = "chessboard";
+  expect_equal(*loaded, expected);
+  EXPECT_TRUE(loaded->lights.empty());
 }
 
 Scene ggx_scene() {

@@ -105,6 +105,9 @@ struct ViewRecord {
 struct ViewsFile {
   std::string camera_file = "camera.yml";
   double max_error_px = 1.0;
+  /// Views without a usable marker pose are left out of the observation map (true), or kept, posed by the fitted
+  /// kinematics (false, the default: grazing views whose markers leave the frame still carry reflectance).
+  bool exclude_unposed = false;
   MarkerLayout layout;
   std::vector<ViewRecord> views;
   nlohmann::json kinematics;  // null, or the fitted rig model (kinematic.hpp's to_json)

@@ -16,6 +16,9 @@ struct IntrinsicsOptions {
   /// Holds fx / fy at its initial value (1 unless the caller seeds it): what OpenCV's sample used for the reference
   /// left_intrinsics.yml. Off by default: a real sensor's pixels need not be square.
   bool fix_aspect_ratio = false;
+  /// Holds k3 at 0 (CALIB_FIX_K3): with few views or a board that does not reach the image corners, k3 only trades
+  /// off against k1 and k2 (OpenCV's tutorial advises fixing it for lenses of small distortion).
+  bool fix_k3 = false;
   /// A view whose RMS reprojection error exceeds this multiple of the median view RMS is an outlier.
   double outlier_factor = 3.0;
   /// Calibrate again without the outlier views (the report keeps every view's error from the final fit).
@@ -56,6 +59,7 @@ struct IntrinsicsResult {
   int board_cols = 0, board_rows = 0;
   double square_m = 0.0;
   bool fix_aspect_ratio = false;
+  bool fix_k3 = false;
 
   size_t used_views() const;
   /// Writes OpenCV-compatible YAML through CameraModel::save_yaml (camera_matrix, distortion_coefficients,

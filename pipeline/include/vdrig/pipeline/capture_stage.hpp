@@ -22,11 +22,10 @@ struct CaptureRequest {
 
 /// Plans the views (scheme -> inverse kinematics; unreachable directions logged), creates the session and captures
 /// on a rig of sim::simulator_and_hardware_backends().
-/// The views are aimed with the config's "geometry" section when it has one (capture::geometry_from_rig_config),
-/// else, for a simulated rig, with the simulator's ground truth (unlike `vdrig capture`, which never plans with the
-/// hidden truth: this makes reference sessions whose views land exactly where planned), else the ideal rig. The
-/// surface size comes from the simulator's ground truth for a simulated rig, a hardware rig gets capture::Manifest's
-/// defaults.
+/// The views are aimed as `vdrig capture` aims them: with the config's "geometry" section when it has one
+/// (capture::geometry_from_rig_config), else the ideal rig at the configured distance (never the simulator's hidden
+/// geometry). The surface size comes from the simulated scene for a simulated rig (the sample's size, part of the
+/// rig's configuration); a hardware rig gets capture::Manifest's defaults.
 Result<capture::Session> capture_session(const CaptureRequest& request);
 
 }  // namespace vdrig::pipeline

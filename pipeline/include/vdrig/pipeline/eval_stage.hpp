@@ -13,16 +13,39 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "vdrig/calib/extrinsics.hpp"
+#include "vdrig/core/camera.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/core/response.hpp"
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
 
 namespace vdrig::pipeline {
+
+/// What a simulated rig knows exactly and a real rig has to calibrate: the truth an evaluation compares with. Only
+/// `vdrig eval` and tests that say by name they use the truth read it; every stage of the pipeline works from what
+/// calibration wrote in SESSION/calib/ (geometry_stage.hpp, hdr_stage.hpp).
+struct GroundTruth {
+  CameraModel camera;           // intrinsics and distortion of the simulated camera
+  rig::RigGeometry geometry;    // the stage's kinematics: measured pan/tilt -> surface pose
+  ResponseCurve response;       // the simulated sensor's response curve
+  calib::MarkerLayout markers;  // the scene's registration markers
+  double surface_width_mm = 0.0, surface_height_mm = 0.0;
+
+  /// The exact surface pose of a view taken at `measured` pan/tilt.
+  ViewPose pose_at(const PanTilt& measured) const { return rig::surface_pose(geometry, measured); }
+};
+
+/// The ground truth of a rig config with a "sim" section, nullopt for any other (hardware) rig. An invalid "sim"
+/// section or an unknown scene is the simulator's error.
+Result<std::optional<GroundTruth>> ground_truth_of(const nlohmann::json& rig_config);
 
 struct EvalOptions {
   int dense_directions = 1000;  // Fibonacci points on the upper hemisphere (uniform in solid angle)

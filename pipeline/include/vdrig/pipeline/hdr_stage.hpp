@@ -3,15 +3,33 @@
 
 #include <functional>
 
+#include "vdrig/calib/response_recovery.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/core/response.hpp"
 #include "vdrig/core/result.hpp"
 
 namespace vdrig::pipeline {
 
-/// The session's response curve: SESSION/calib/response.json when radiometric calibration wrote it, else the
-/// simulator's ground truth; kNotFound for an uncalibrated hardware session, kCorrupt for an unreadable file.
+/// The session's response curve: SESSION/calib/response.json as radiometric calibration wrote it (never the
+/// simulator's configuration); kNotFound naming `vdrig calib response SESSION` when there is none, kCorrupt for an
+/// unreadable file.
 Result<ResponseCurve> session_response(const capture::Session& session);
+
+/// Radiometric calibration of a session from its own brackets: Debevec-Malik (calib::recover_response) on one
+/// complete view's frames, written to SESSION/calib/response.json. view < 0 picks, among up to 16 complete views
+/// spread over the session, the one whose frames cover the most codes (pixel values seen unclipped in some frame,
+/// summed over the channels): the recovery sees the curve only where the bracket put codes.
+struct ResponseCalibrationOptions {
+  int view = -1;
+  calib::ResponseRecoveryOptions recovery;
+};
+struct ResponseCalibration {
+  int view = 0;           // the view whose bracket was used
+  int codes_covered = 0;  // its code coverage (see above)
+  calib::RecoveredResponse response;
+};
+Result<ResponseCalibration> calibrate_session_response(const capture::Session& session,
+                                                       const ResponseCalibrationOptions& options = {});
 
 struct HdrMergeOptions {
   /// Merge every complete view again, even those whose HDR image reads back fine.
