@@ -3,8 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "vdrig/core/image_io.hpp"
 
 namespace vdrig::pipeline::html {
 
@@ -54,13 +55,14 @@ std::string scale_label(double value, double lo, double hi) {
   return significant(value, 3);
 }
 
-std::string base64(const std::vector<uchar>& bytes) {
+std::string base64(std::string_view bytes) {
   static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
   for (size_t i = 0; i < bytes.size(); i += 3) {
-    const uint32_t n = (uint32_t(bytes[i]) << 16) | (i + 1 < bytes.size() ? uint32_t(bytes[i + 1]) << 8 : 0) |
-                       (i + 2 < bytes.size() ? uint32_t(bytes[i + 2]) : 0);
+    auto at = [&](size_t k) { return uint32_t(static_cast<unsigned char>(bytes[k])); };
+    const uint32_t n =
+        (at(i) << 16) | (i + 1 < bytes.size() ? at(i + 1) << 8 : 0) | (i + 2 < bytes.size() ? at(i + 2) : 0);
     out += kAlphabet[(n >> 18) & 63];
     out += kAlphabet[(n >> 12) & 63];
     out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
@@ -70,10 +72,10 @@ std::string base64(const std::vector<uchar>& bytes) {
 }
 
 std::string img_tag(const cv::Mat& image, const std::string& alt) {
-  std::vector<uchar> png;
-  cv::imencode(".png", image, png);
+  auto png = encode_png(image, PngCompression::kFastest);
+  if (!png) return missing(alt + " (" + png.error().message + ")");
   return "<img alt=\"" + escape_html(alt) + "\" width=\"" + std::to_string(image.cols) + "\" height=\"" +
-         std::to_string(image.rows) + "\" src=\"data:image/png;base64," + base64(png) + "\">";
+         std::to_string(image.rows) + "\" src=\"data:image/png;base64," + base64(png.value()) + "\">";
 }
 
 std::string missing(const std::string& what) { return "<p class=\"missing\">Missing: " + what + "</p>\n"; }

@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
@@ -28,7 +29,7 @@ std::string with_uncertainty(double value, double sigma);
 std::string scale_label(double value, double lo, double hi);
 
 /// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
-std::string base64(const std::vector<uchar>& bytes);
+std::string base64(std::string_view bytes);
 
 /// An <img> of an 8-bit image (BGR or grey) as an inline PNG.
 std::string img_tag(const cv::Mat& image, const std::string& alt);
