@@ -4,7 +4,9 @@
 //
 // Both libraries report errors by calling a function that must not return: here it records the message and
 // longjmps back to the setjmp of the call that failed. The functions holding a setjmp keep only trivially
-// destructible locals (a longjmp skips destructors); what they produce lives in a state struct of the caller.
+// destructible locals (a longjmp skips destructors); what they produce lives in a state struct of the caller, and
+// their C++ work (allocations, strings) is in helpers that are not inlined into them: GCC's -Wclobbered flags a
+// std::string's inlined internals as live across the setjmp, and the ASan build fails on it.
 #include <jerror.h>
 #include <png.h>
 #include <tiffio.h>
@@ -47,7 +49,7 @@ struct PngDecode {
   std::string_view bytes;
   size_t at = 0;
   ImageDecode mode = ImageDecode::kUnchanged;
-  std::string error;  // libpng's message when false is returned
+  char error[256] = "";  // libpng's message when false is returned (a C string: see the top of the file)
   bool refused = false;
   uint64_t width = 0, height = 0;
   cv::Mat image;
@@ -56,12 +58,10 @@ struct PngDecode {
   png_infop info = nullptr;
 };
 
+void set_error(char (&error)[256], const char* message) { std::snprintf(error, sizeof error, "%s", message); }
+
 void png_on_error(png_structp png, png_const_charp message) {
-  static_cast<PngDecode*>(png_get_error_ptr(png))->error = message;
-  png_longjmp(png, 1);
-}
-void png_on_encode_error(png_structp png, png_const_charp message) {
-  *static_cast<std::string*>(png_get_error_ptr(png)) = message;
+  set_error(static_cast<PngDecode*>(png_get_error_ptr(png))->error, message);
   png_longjmp(png, 1);
 }
 void png_on_warning(png_structp /*png*/, png_const_charp /*message*/) {}  // e.g. an unknown sRGB profile
@@ -73,18 +73,25 @@ void png_read_bytes(png_structp png, png_bytep out, size_t n) {
   d->at += n;
 }
 
+/// The image and its row pointers, outside png_decode (see the top of the file).
+[[gnu::noinline]] void allocate(PngDecode& d, int rows, int cols, int type) {
+  d.image.create(rows, cols, type);
+  d.rows.resize(static_cast<size_t>(rows));
+  for (int r = 0; r < rows; ++r) d.rows[static_cast<size_t>(r)] = d.image.ptr<png_byte>(r);
+}
+
 /// Channels and depth as OpenCV's IMREAD_UNCHANGED (grey 1 channel, colour BGR, alpha or a tRNS chunk on colour
 /// BGRA, depth kept) or IMREAD_COLOR (8-bit BGR). False with d.error or d.refused.
 bool png_decode(PngDecode& d) {
   d.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &d, png_on_error, png_on_warning);
   if (!d.png) {
-    d.error = "out of memory";
+    set_error(d.error, "out of memory");
     return false;
   }
   d.info = png_create_info_struct(d.png);
   if (!d.info || setjmp(png_jmpbuf(d.png))) {
     png_destroy_read_struct(&d.png, &d.info, nullptr);
-    if (d.error.empty()) d.error = "out of memory";
+    if (d.error[0] == 0) set_error(d.error, "out of memory");
     return false;
   }
   const png_structp png = d.png;
@@ -120,15 +127,13 @@ bool png_decode(PngDecode& d) {
   const int channels = png_get_channels(png, info);
   const int out_depth = png_get_bit_depth(png, info);
   if ((channels != 1 && channels != 3 && channels != 4) || (out_depth != 8 && out_depth != 16)) {
-    d.error = "unexpected layout after conversion: " + std::to_string(channels) + " channels of " +
-              std::to_string(out_depth) + " bits";
+    std::snprintf(d.error, sizeof d.error, "unexpected layout after conversion: %d channels of %d bits", channels,
+                  out_depth);
     png_destroy_read_struct(&d.png, &d.info, nullptr);
     return false;
   }
-  d.image.create(static_cast<int>(height), static_cast<int>(width),
-                 CV_MAKETYPE(out_depth == 16 ? CV_16U : CV_8U, channels));
-  d.rows.resize(height);
-  for (png_uint_32 r = 0; r < height; ++r) d.rows[r] = d.image.ptr<png_byte>(static_cast<int>(r));
+  allocate(d, static_cast<int>(height), static_cast<int>(width),
+           CV_MAKETYPE(out_depth == 16 ? CV_16U : CV_8U, channels));
   png_read_image(png, d.rows.data());
   png_read_end(png, nullptr);
   png_destroy_read_struct(&d.png, &d.info, nullptr);
@@ -147,7 +152,7 @@ struct JpegDecode {
   ImageDecode mode = ImageDecode::kUnchanged;
   jpeg_decompress_struct cinfo{};
   Errors errors{};
-  std::string error;
+  char error[256] = "";
   bool refused = false;
   bool truncated = false;
   uint64_t width = 0, height = 0;
@@ -159,7 +164,7 @@ void jpeg_on_error(j_common_ptr cinfo) {
   auto* errors = reinterpret_cast<JpegDecode::Errors*>(cinfo->err);
   char text[JMSG_LENGTH_MAX];
   (*cinfo->err->format_message)(cinfo, text);
-  errors->self->error = text;
+  set_error(errors->self->error, text);
   std::longjmp(errors->jump, 1);
 }
 
@@ -178,6 +183,12 @@ void cmyk_to_bgr(const uint8_t* cmyk, uint8_t* bgr, int width) {
     bgr[1] = static_cast<uint8_t>(k - (((255 - cmyk[1]) * k) >> 8));
     bgr[0] = static_cast<uint8_t>(k - (((255 - cmyk[2]) * k) >> 8));
   }
+}
+
+/// The image (and a CMYK row), outside jpeg_decode (see the top of the file).
+[[gnu::noinline]] void allocate(JpegDecode& d, int rows, int cols, int type, bool cmyk) {
+  d.image.create(rows, cols, type);
+  if (cmyk) d.cmyk_row.resize(static_cast<size_t>(cols) * 4);
 }
 
 /// Grey stays one channel in kUnchanged mode, everything else becomes 8-bit BGR (as OpenCV). False with d.error,
@@ -207,8 +218,7 @@ bool jpeg_decode(JpegDecode& d) {
   cinfo.out_color_space = cmyk ? JCS_CMYK : grey ? JCS_GRAYSCALE : JCS_EXT_BGR;
   jpeg_start_decompress(&cinfo);
   const int width = static_cast<int>(cinfo.output_width);
-  d.image.create(static_cast<int>(cinfo.output_height), width, grey ? CV_8UC1 : CV_8UC3);
-  if (cmyk) d.cmyk_row.resize(static_cast<size_t>(width) * 4);
+  allocate(d, static_cast<int>(cinfo.output_height), width, grey ? CV_8UC1 : CV_8UC3, cmyk);
   while (cinfo.output_scanline < cinfo.output_height) {
     const int r = static_cast<int>(cinfo.output_scanline);
     JSAMPROW row = cmyk ? d.cmyk_row.data() : d.image.ptr<JSAMPLE>(r);
@@ -363,11 +373,16 @@ bool is_tiff(std::string_view bytes) {
 
 struct PngEncode {
   std::string bytes;
-  std::string error;
+  char error[256] = "";
   std::vector<png_bytep> rows;
   png_structp png = nullptr;  // here, not locals of png_encode: they live across its setjmp
   png_infop info = nullptr;
 };
+
+void png_on_encode_error(png_structp png, png_const_charp message) {
+  set_error(static_cast<PngEncode*>(png_get_error_ptr(png))->error, message);
+  png_longjmp(png, 1);
+}
 
 void png_write_bytes(png_structp png, png_bytep data, size_t n) {
   static_cast<PngEncode*>(png_get_io_ptr(png))->bytes.append(reinterpret_cast<const char*>(data), n);
@@ -375,15 +390,15 @@ void png_write_bytes(png_structp png, png_bytep data, size_t n) {
 void png_flush(png_structp /*png*/) {}
 
 bool png_encode(PngEncode& e, const cv::Mat& image, PngCompression compression) {
-  e.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &e.error, png_on_encode_error, png_on_warning);
+  e.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &e, png_on_encode_error, png_on_warning);
   if (!e.png) {
-    e.error = "out of memory";
+    set_error(e.error, "out of memory");
     return false;
   }
   e.info = png_create_info_struct(e.png);
   if (!e.info || setjmp(png_jmpbuf(e.png))) {
     png_destroy_write_struct(&e.png, &e.info);
-    if (e.error.empty()) e.error = "out of memory";
+    if (e.error[0] == 0) set_error(e.error, "out of memory");
     return false;
   }
   const png_structp png = e.png;
@@ -437,7 +452,7 @@ Result<cv::Mat> decode_image(std::string_view bytes, const std::string& name, Im
     d.mode = mode;
     if (png_decode(d)) return std::move(d.image);
     if (d.refused) return size_refused(name, d.width, d.height, "PNG");
-    return make_error(ErrorCode::kCorrupt, "cannot decode " + name + " (PNG): " + d.error);
+    return make_error(ErrorCode::kCorrupt, "cannot decode " + name + " (PNG): " + std::string(d.error));
   }
   if (is_jpeg(bytes)) {
     auto d = std::make_unique<JpegDecode>();  // libjpeg's state is ~1 kB with the jump buffer; not on the stack
@@ -446,7 +461,7 @@ Result<cv::Mat> decode_image(std::string_view bytes, const std::string& name, Im
     if (jpeg_decode(*d)) return std::move(d->image);
     if (d->refused) return size_refused(name, d->width, d->height, "JPEG");
     if (d->truncated) return make_error(ErrorCode::kCorrupt, "cannot decode " + name + " (JPEG): truncated");
-    return make_error(ErrorCode::kCorrupt, "cannot decode " + name + " (JPEG): " + d->error);
+    return make_error(ErrorCode::kCorrupt, "cannot decode " + name + " (JPEG): " + std::string(d->error));
   }
   if (is_tiff(bytes)) {
     auto image = tiff_decode(bytes, name);
@@ -466,7 +481,8 @@ Result<std::string> encode_png(const cv::Mat& image, PngCompression compression)
   PngEncode e;
   e.rows.resize(static_cast<size_t>(image.rows));
   for (int r = 0; r < image.rows; ++r) e.rows[static_cast<size_t>(r)] = const_cast<png_bytep>(image.ptr<png_byte>(r));
-  if (!png_encode(e, image, compression)) return make_error(ErrorCode::kIo, "PNG encoding failed: " + e.error);
+  if (!png_encode(e, image, compression))
+    return make_error(ErrorCode::kIo, "PNG encoding failed: " + std::string(e.error));
   return std::move(e.bytes);
 }
 

@@ -20,7 +20,7 @@ ProcessRun vdrig(const std::string& args) { return test::run_vdrig(args, {.timeo
 // and 50 MB before main, more than a small stack's whole fit. Images go through libpng and libjpeg instead; neither
 // vdrig nor vdrigd may load imgcodecs, highgui, videoio or GDAL, directly or through another library.
 TEST(RtiCli, ExecutablesLoadNoOpenCvImgcodecs) {
-  for (const std::string exe : {std::string(VDRIG_CLI_PATH), std::string(VDRIG_VDRIGD_PATH)}) {
+  for (const std::string& exe : {std::string(VDRIG_CLI_PATH), std::string(VDRIG_VDRIGD_PATH)}) {
     const ProcessRun ldd = test::run_process({"/usr/bin/ldd", exe});
     ASSERT_EQ(ldd.exit_code, 0) << ldd.out << ldd.err;
     EXPECT_NE(ldd.out.find("libopencv_core"), std::string::npos) << ldd.out;  // ldd did list the libraries
