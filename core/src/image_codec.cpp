@@ -16,6 +16,7 @@
 #include <csetjmp>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 
@@ -423,6 +424,57 @@ bool png_encode(PngEncode& e, const cv::Mat& image, PngCompression compression) 
   return true;
 }
 
+// ---- JPEG encoding
+
+struct JpegEncode {
+  struct Errors {
+    jpeg_error_mgr pub;  // first: libjpeg's cinfo->err points here
+    std::jmp_buf jump;
+    JpegEncode* self;
+  };
+  jpeg_compress_struct cinfo{};
+  Errors errors{};
+  char error[256] = "";
+  unsigned char* buffer = nullptr;  // jpeg_mem_dest's, freed by the caller
+  unsigned long size = 0;
+};
+
+void jpeg_on_encode_error(j_common_ptr cinfo) {
+  auto* errors = reinterpret_cast<JpegEncode::Errors*>(cinfo->err);
+  char text[JMSG_LENGTH_MAX];
+  (*cinfo->err->format_message)(cinfo, text);
+  set_error(errors->self->error, text);
+  std::longjmp(errors->jump, 1);
+}
+
+/// libjpeg's defaults (4:2:0 chroma for colour, as OpenCV's imencode), BGR or grey rows straight from the image.
+bool jpeg_encode(JpegEncode& e, const cv::Mat& image, int quality) {
+  e.cinfo.err = jpeg_std_error(&e.errors.pub);
+  e.errors.pub.error_exit = jpeg_on_encode_error;
+  e.errors.self = &e;
+  if (setjmp(e.errors.jump)) {
+    jpeg_destroy_compress(&e.cinfo);
+    return false;
+  }
+  jpeg_compress_struct& cinfo = e.cinfo;
+  jpeg_create_compress(&cinfo);
+  jpeg_mem_dest(&cinfo, &e.buffer, &e.size);
+  cinfo.image_width = static_cast<JDIMENSION>(image.cols);
+  cinfo.image_height = static_cast<JDIMENSION>(image.rows);
+  cinfo.input_components = image.channels();
+  cinfo.in_color_space = image.channels() == 1 ? JCS_GRAYSCALE : JCS_EXT_BGR;
+  jpeg_set_defaults(&cinfo);
+  jpeg_set_quality(&cinfo, quality, TRUE);
+  jpeg_start_compress(&cinfo, TRUE);
+  while (cinfo.next_scanline < cinfo.image_height) {
+    JSAMPROW row = const_cast<JSAMPLE*>(image.ptr<JSAMPLE>(static_cast<int>(cinfo.next_scanline)));
+    jpeg_write_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_compress(&cinfo);
+  jpeg_destroy_compress(&cinfo);
+  return true;
+}
+
 bool is_png(std::string_view bytes) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   return bytes.size() >= 8 && std::memcmp(bytes.data(), kSignature, 8) == 0;
@@ -484,6 +536,19 @@ Result<std::string> encode_png(const cv::Mat& image, PngCompression compression)
   if (!png_encode(e, image, compression))
     return make_error(ErrorCode::kIo, "PNG encoding failed: " + std::string(e.error));
   return std::move(e.bytes);
+}
+
+Result<std::string> encode_jpeg(const cv::Mat& image, int quality) {
+  if (image.empty() || (image.type() != CV_8UC1 && image.type() != CV_8UC3))
+    return make_error(ErrorCode::kInvalidArgument, "JPEG encoding: needs a non-empty 8-bit grey or BGR image");
+  if (quality < 1 || quality > 100)
+    return make_error(ErrorCode::kInvalidArgument, "JPEG quality " + std::to_string(quality) + ": expected 1..100");
+  JpegEncode e;
+  const bool ok = jpeg_encode(e, image, quality);
+  std::string bytes = ok ? std::string(reinterpret_cast<const char*>(e.buffer), e.size) : std::string();
+  std::free(e.buffer);
+  if (!ok) return make_error(ErrorCode::kIo, "JPEG encoding failed: " + std::string(e.error));
+  return bytes;
 }
 
 }  // namespace vdrig

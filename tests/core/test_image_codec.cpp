@@ -67,6 +67,20 @@ TEST(ImageCodec, WhatVdrigWritesOpenCvReadsExactly) {
   const cv::Mat crop = big(cv::Rect(5, 7, 20, 11));
   ASSERT_TRUE(write_png(dir / "crop.png", crop));
   EXPECT_EQ(max_diff(cv::imread((dir / "crop.png").string(), cv::IMREAD_UNCHANGED), crop), 0.0);
+  // JPEG (the report's inline images): OpenCV decodes it to what its own encoder's file decodes to, within the
+  // codes two encoders of the same libjpeg defaults may differ by.
+  for (const int type : {CV_8UC1, CV_8UC3}) {
+    const cv::Mat image = pattern(33, 47, type);
+    auto jpeg = encode_jpeg(image, 90);
+    ASSERT_TRUE(jpeg) << jpeg.error().describe();
+    std::vector<uchar> peer;
+    ASSERT_TRUE(cv::imencode(".jpg", image, peer, {cv::IMWRITE_JPEG_QUALITY, 90}));
+    const cv::Mat ours = cv::imdecode(std::vector<uchar>(jpeg->begin(), jpeg->end()), cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(ours.type(), type);
+    EXPECT_LE(max_diff(ours, cv::imdecode(peer, cv::IMREAD_UNCHANGED)), 2.0) << "type " << type;
+  }
+  EXPECT_FALSE(encode_jpeg(cv::Mat(4, 4, CV_16UC3), 90));
+  EXPECT_FALSE(encode_jpeg(cv::Mat(4, 4, CV_8UC3), 0));
   EXPECT_FALSE(encode_png(cv::Mat(4, 4, CV_32FC1)));
   EXPECT_FALSE(encode_png(cv::Mat(4, 4, CV_8UC2)));
 }

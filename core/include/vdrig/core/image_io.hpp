@@ -1,4 +1,4 @@
-// Image files: multi-channel OpenEXR (float or half, named channels, string/float attributes) and PNG.
+// Image files: multi-channel OpenEXR (float or half, named channels, string/float attributes), PNG, JPEG, TIFF.
 #pragma once
 
 #include <filesystem>
@@ -69,5 +69,8 @@ enum class PngCompression {
 };
 /// Encodes an 8- or 16-bit image with 1, 3 (BGR) or 4 (BGRA) channels as PNG with libpng.
 Result<std::string> encode_png(const cv::Mat& image, PngCompression compression = PngCompression::kSmaller);
+/// Encodes an 8-bit grey or BGR image as a baseline JPEG with libjpeg's defaults (4:2:0 chroma, as OpenCV's
+/// imencode) at `quality` 1..100.
+Result<std::string> encode_jpeg(const cv::Mat& image, int quality);
 
 }  // namespace vdrig
