@@ -1,6 +1,12 @@
 # Every dependency comes from Debian's packages (scripts/setup installs them).
 find_package(Threads REQUIRED)
+# imgcodecs only for tests and benches, as an independent peer: vdrig's libraries and executables read and write
+# images with libpng, libjpeg and libtiff (core/src/image_codec.cpp), since Debian's imgcodecs links GDAL, GDCM, HDF5,
+# Poppler and ~100 more libraries, 0.15 s and 50 MB at every process start (issue #25).
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d photo)
+find_package(PNG REQUIRED)
+find_package(JPEG REQUIRED)
+find_package(TIFF REQUIRED)
 find_package(Eigen3 REQUIRED NO_MODULE)
 find_package(OpenEXR 3 REQUIRED)
 find_package(Imath REQUIRED)

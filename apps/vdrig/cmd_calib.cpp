@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
@@ -55,7 +54,7 @@ Result<std::vector<Frame>> load_bracket(const std::vector<std::string>& items, i
     auto t = parse_seconds(item.substr(colon + 1));
     if (!t) return t.error();
     const std::string path = item.substr(0, colon);
-    auto img = read_png(path);  // any format OpenCV decodes, depth unchanged
+    auto img = read_png(path);  // PNG or JPEG, depth unchanged
     if (!img) return img.error();
     Frame f;
     f.image = std::move(*img);
@@ -110,9 +109,12 @@ Status run_intrinsics(const std::string& board, double square_m, const std::vect
   const auto [cols, rows] = parsed.value();
   std::vector<cv::Mat> images;
   for (const auto& p : paths) {
-    VDRIG_TRY(check_regular_file(p));  // cv::imread would wait on a FIFO
-    cv::Mat m = cv::imread(p, cv::IMREAD_GRAYSCALE);
-    if (m.empty()) return make_error(ErrorCode::kNotFound, "cannot read image " + p);
+    auto read = read_png(p);  // PNG or JPEG; a FIFO is refused, not waited on
+    if (!read) return read.error();
+    cv::Mat m = std::move(read.value());
+    if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 256);  // the high byte, as IMREAD_GRAYSCALE
+    if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
+    if (m.channels() == 4) cv::cvtColor(m, m, cv::COLOR_BGRA2GRAY);
     images.push_back(m);
   }
   auto res = calib::calibrate_intrinsics(images, cols, rows, square_m, opt);

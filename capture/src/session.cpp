@@ -9,7 +9,6 @@
 #include <cstring>
 #include <ctime>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <type_traits>
 
 #include "session_files.hpp"
@@ -392,7 +391,7 @@ namespace {
 /// writeback without waiting for it, so the disk works while the next frame is being taken; durability comes later
 /// (fsync_frame_file). A previous file of that name (an interrupted or redone view's) is removed first and the new
 /// one created with O_EXCL | O_NOFOLLOW, so a link planted at the name is refused, never written through.
-Status write_frame_file(int frames_fd, const std::string& name, const fs::path& path, const std::vector<uchar>& bytes) {
+Status write_frame_file(int frames_fd, const std::string& name, const fs::path& path, const std::string& bytes) {
   VDRIG_TRY(detail::check_regular_or_absent_at(frames_fd, name, path));
   if (::unlinkat(frames_fd, name.c_str(), 0) != 0 && errno != ENOENT)
     return error_from_errno(errno, "remove the old " + path.string());
@@ -463,16 +462,11 @@ Result<FrameRecord> Session::append_frame(int view, int bracket_index, const Fra
   if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U)
     return make_error(ErrorCode::kInvalidArgument, "frame image must be 8- or 16-bit");
   const std::string name = SessionLayout::frame_file_relative(view, bracket_index).string();
-  std::vector<uchar> bytes;
-  try {
-    // Speed over size (encoding is the daemon's main per-frame CPU cost): OpenCV's fast path is zlib level 1 with
-    // the RLE strategy and the SUB filter only; naming a compression level instead makes libpng try every filter on
-    // every row, about twice as slow for files ~15% smaller.
-    if (!cv::imencode(".png", frame.image, bytes, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_RLE}))
-      return make_error(ErrorCode::kIo, std::string("PNG encoding failed for ") + name);
-  } catch (const cv::Exception& e) {
-    return make_error(ErrorCode::kIo, std::string("PNG encoding failed for ") + name + ": " + e.what());
-  }
+  // Speed over size (encoding is the daemon's main per-frame CPU cost): zlib level 1 with the RLE strategy and the
+  // SUB filter only; letting libpng try every filter on every row is about twice as slow for files ~15% smaller.
+  auto encoded = encode_png(frame.image, PngCompression::kFastest);
+  if (!encoded) return make_error(encoded.error().code, encoded.error().message + " (" + name + ")");
+  const std::string& bytes = encoded.value();
   if (write_hook_) VDRIG_TRY(write_hook_(dir_ / name));
   // No temporary + rename: until the view's commit no journal line names this file, so a torn file is never read.
   auto frames_dir = detail::open_session_folder(dir_, layout().frames_dir().filename().string(), true);

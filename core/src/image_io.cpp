@@ -15,7 +15,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 #include "vdrig/core/file_read.hpp"
@@ -186,59 +185,23 @@ Status write_png(const fs::path& path, const cv::Mat& image) {
   if (image.empty()) return make_error(ErrorCode::kInvalidArgument, "empty image for " + path.string());
   if (image.depth() != CV_8U && image.depth() != CV_16U)
     return make_error(ErrorCode::kInvalidArgument, "PNG needs 8- or 16-bit data: " + path.string());
-  std::vector<uchar> bytes;
-  try {
-    if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-      return make_error(ErrorCode::kIo, "PNG encoding failed for " + path.string());
-  } catch (const cv::Exception& e) {
-    return make_error(ErrorCode::kIo, "PNG encoding failed for " + path.string() + ": " + e.what());
-  }
-  return write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
+  auto bytes = encode_png(image);
+  if (!bytes) return make_error(bytes.error().code, bytes.error().message + " (" + path.string() + ")");
+  return write_file_atomic(path, bytes.value());
 }
 
 namespace {
 
-// read_png's limits (documented in image_io.hpp).
-constexpr uint64_t kMaxPngSide = 16384;
-constexpr uint64_t kMaxPngPixels = 100'000'000;
+// read_png's file limit (documented in image_io.hpp); decode_image checks the pixel counts.
 constexpr size_t kMaxImageFileBytes = size_t{1} << 30;
-
-/// Width and height from a PNG's IHDR chunk (big-endian, right after the 8-byte signature), or {0, 0} when the bytes
-/// do not start like a PNG (another format OpenCV decodes).
-std::pair<uint64_t, uint64_t> png_header_size(const std::string& bytes) {
-  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (bytes.size() < 24 || std::memcmp(bytes.data(), kSignature, 8) != 0 || bytes.compare(12, 4, "IHDR") != 0)
-    return {0, 0};
-  auto be32 = [&](size_t at) {
-    uint64_t v = 0;
-    for (size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
-    return v;
-  };
-  return {be32(16), be32(20)};
-}
 
 }  // namespace
 
 Result<cv::Mat> read_png(const fs::path& path) {
-  // Read through the regular-file check (a FIFO frame would hang cv::imread) and size the image from its header
-  // before decoding, so an oversized frame is refused without allocating it.
+  // Read through the regular-file check (a FIFO frame would hang a reader that opens the path itself).
   auto bytes = read_regular_file(path, kMaxImageFileBytes);
   if (!bytes) return bytes.error();
-  const auto [width, height] = png_header_size(bytes.value());
-  if (width > kMaxPngSide || height > kMaxPngSide || width * height > kMaxPngPixels)
-    return make_error(ErrorCode::kInvalidArgument, path.string() + " is a " + std::to_string(width) + "x" +
-                                                       std::to_string(height) + " PNG; at most " +
-                                                       std::to_string(kMaxPngSide) + " px a side and " +
-                                                       std::to_string(kMaxPngPixels / 1000000) + " Mpx are read");
-  cv::Mat m;
-  try {
-    const cv::Mat buffer(1, static_cast<int>(bytes->size()), CV_8UC1, bytes->data());
-    m = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    return make_error(ErrorCode::kCorrupt, "cannot decode " + path.string() + ": " + e.what());
-  }
-  if (m.empty()) return make_error(ErrorCode::kCorrupt, "cannot decode " + path.string());
-  return m;
+  return decode_image(bytes.value(), path.string());
 }
 
 }  // namespace vdrig

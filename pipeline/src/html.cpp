@@ -4,8 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "vdrig/core/image_io.hpp"
 
 namespace vdrig::pipeline::html {
 
@@ -87,13 +88,14 @@ std::string tick_label(double value, double step) {
   return buf;
 }
 
-std::string base64(const std::vector<uchar>& bytes) {
+std::string base64(std::string_view bytes) {
   static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
   for (size_t i = 0; i < bytes.size(); i += 3) {
-    const uint32_t n = (uint32_t(bytes[i]) << 16) | (i + 1 < bytes.size() ? uint32_t(bytes[i + 1]) << 8 : 0) |
-                       (i + 2 < bytes.size() ? uint32_t(bytes[i + 2]) : 0);
+    auto at = [&](size_t k) { return uint32_t(static_cast<unsigned char>(bytes[k])); };
+    const uint32_t n =
+        (at(i) << 16) | (i + 1 < bytes.size() ? at(i + 1) << 8 : 0) | (i + 2 < bytes.size() ? at(i + 2) : 0);
     out += kAlphabet[(n >> 18) & 63];
     out += kAlphabet[(n >> 12) & 63];
     out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
@@ -103,15 +105,12 @@ std::string base64(const std::vector<uchar>& bytes) {
 }
 
 std::string img_tag(const cv::Mat& image, const std::string& alt, int display_width, int jpeg_quality) {
-  std::vector<uchar> bytes;
-  if (jpeg_quality > 0)
-    cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
-  else
-    cv::imencode(".png", image, bytes);
+  auto bytes = jpeg_quality > 0 ? encode_jpeg(image, jpeg_quality) : encode_png(image, PngCompression::kFastest);
+  if (!bytes) return missing(alt + " (" + bytes.error().message + ")");
   const int w = display_width > 0 ? display_width : image.cols;
   const int h = static_cast<int>(std::lround(double(image.rows) * w / std::max(1, image.cols)));
   return "<img alt=\"" + escape_html(alt) + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) +
-         "\" src=\"data:image/" + (jpeg_quality > 0 ? "jpeg" : "png") + ";base64," + base64(bytes) + "\">";
+         "\" src=\"data:image/" + (jpeg_quality > 0 ? "jpeg" : "png") + ";base64," + base64(bytes.value()) + "\">";
 }
 
 std::string missing(const std::string& what) { return "<p class=\"missing\">Missing: " + what + "</p>\n"; }

@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
@@ -41,7 +42,7 @@ Ticks nice_ticks(double lo, double hi, int max_ticks = 6);
 std::string tick_label(double value, double step);
 
 /// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
-std::string base64(const std::vector<uchar>& bytes);
+std::string base64(std::string_view bytes);
 
 /// An <img> of an 8-bit image (BGR or grey) as an inline PNG (or JPEG with `jpeg_quality` > 0: photographs), shown
 /// `display_width` pixels wide (0: its own width; the page scales it, pixelated).

@@ -7,7 +7,6 @@
 #include <ctime>
 #include <map>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 

@@ -2,9 +2,10 @@
 
 #include <linux/videodev2.h>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
+
+#include "vdrig/core/image_io.hpp"
 
 namespace vdrig::rig {
 
@@ -65,9 +66,10 @@ Result<cv::Mat> to_bgr(const PixelBuffer& b) {
     return make_error(ErrorCode::kInvalidArgument, "pixel buffer without size or data");
   if (b.layout == PixelLayout::kMJPEG) {
     // The JPEG length is what the driver reported (bytesused), not the buffer size.
-    const cv::Mat encoded(1, static_cast<int>(b.bytes), CV_8UC1, const_cast<uint8_t*>(b.data));
-    cv::Mat bgr = cv::imdecode(encoded, cv::IMREAD_COLOR);
-    if (bgr.empty()) return make_error(ErrorCode::kCorrupt, "MJPEG frame does not decode");
+    auto decoded = decode_image(std::string_view(reinterpret_cast<const char*>(b.data), b.bytes), "MJPEG frame",
+                                ImageDecode::kBgr8);
+    if (!decoded) return decoded.error();
+    cv::Mat bgr = std::move(decoded.value());
     if (bgr.cols != b.width || bgr.rows != b.height)
       return make_error(ErrorCode::kCorrupt, "MJPEG frame is " + std::to_string(bgr.cols) + "x" +
                                                  std::to_string(bgr.rows) + ", expected " + std::to_string(b.width) +

@@ -88,7 +88,7 @@ enum DataType : uint16_t {
   kUint64 = 0x0008,
 };
 
-// Object formats a still camera produces that cv::imdecode reads.
+// Object formats a still camera produces that decode_image reads.
 enum ObjectFormat : uint16_t {
   kFormatExifJpeg = 0x3801,
   kFormatTiff = 0x380D,

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
 
+#include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::rig {
@@ -101,11 +101,15 @@ Result<Frame> StillCamera::collect(const std::vector<StillFile>& files) {
     return link_error(
         make_error(ErrorCode::kCorrupt, tag_ + ": " + chosen->name + ": " + std::to_string(bytes->size()) +
                                             " bytes where the camera said " + std::to_string(chosen->size_bytes)));
-  cv::Mat image = cv::imdecode(bytes.value(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+  // EXIF orientation is not applied (decode_image never does): the frame stays in sensor order.
+  auto decoded = decode_image(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()),
+                              chosen->name, ImageDecode::kBgr8);
   // Deleted only once decoded: a photo that does not decode (or does not arrive whole) stays on the camera.
-  if (image.empty())
+  if (!decoded)
     return make_error(ErrorCode::kCorrupt, tag_ + ": " + chosen->name + " (" + std::to_string(bytes->size()) +
-                                               " bytes) does not decode; left on the camera");
+                                               " bytes) does not decode (" + decoded.error().message +
+                                               "); left on the camera");
+  cv::Mat image = std::move(decoded.value());
   remove_all();
   info_.width = image.cols;
   info_.height = image.rows;

@@ -1,6 +1,6 @@
 // What the still-camera backends (usb-ptp, gphoto2) share behind the Camera interface. A still camera stores each
 // photograph as a file on itself (card or RAM): a capture triggers the shutter, lists the files the shot stored,
-// downloads the first one OpenCV decodes (JPEG, TIFF, PNG; RAW is refused with the reason), decodes it and then
+// downloads the first one vdrig decodes (JPEG, TIFF, PNG; RAW is refused with the reason), decodes it and then
 // deletes them all from the camera (unless kept on the card). A shot that fails any of this leaves its files there.
 // Exposure time and ISO are discrete stops on such cameras: the backend sets the one nearest in stops (nearest_stop)
 // and every frame reports the exposure really used.
@@ -27,7 +27,7 @@ struct StillFile {
   std::string name;         // the camera's file name (messages, gphoto2's file argument)
   std::string folder;       // gphoto2: the folder on the camera; empty for PTP
   uint32_t handle = 0;      // PTP: the object handle
-  bool decodable = false;   // JPEG, TIFF or PNG: what cv::imdecode reads
+  bool decodable = false;   // JPEG, TIFF or PNG: what decode_image reads
   uint64_t size_bytes = 0;  // what the camera says the file holds; 0 when it does not say
 };
 

@@ -224,7 +224,7 @@ Result<ParameterMap> read_relight(const fs::path& info_path) {
   std::vector<cv::Mat> jpegs(static_cast<size_t>(K));
   for (int k = 0; k < K; ++k) {
     const fs::path file = dir / ("plane_" + std::to_string(k) + ".jpg");
-    auto image = read_png(file);  // any format OpenCV decodes
+    auto image = read_png(file);  // PNG or JPEG
     if (!image) return image.error();
     if (image->cols != w || image->rows != h || image->type() != CV_8UC3)
       return corrupt(file, "a " + std::to_string(image->cols) + "x" + std::to_string(image->rows) + " image with " +

@@ -92,7 +92,7 @@ Result<cv::Mat> read_linear_image(const fs::path& path, const Linearisation& lin
     if (!rgb) return rgb.error();
     image = rgb.value();
   } else {
-    auto decoded = read_png(path);  // any format OpenCV decodes, depth kept, size-checked
+    auto decoded = read_png(path);  // PNG or JPEG, depth kept, size-checked
     if (!decoded) return decoded.error();
     image = decoded.value();
     if (image.channels() == 1)

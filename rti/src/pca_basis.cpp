@@ -8,13 +8,13 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <sstream>
 #include <thread>
 
 #include "jpeg_444.hpp"
 #include "vdrig/core/file_write.hpp"
+#include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::rti {
@@ -340,10 +340,11 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
     }
     auto jpeg = encode_jpeg_444(bgr, options.jpeg_quality);
     if (!jpeg) return jpeg.error();
-    const cv::Mat decoded =
-        cv::imdecode(cv::Mat(1, static_cast<int>(jpeg->size()), CV_8UC1, jpeg->data()), cv::IMREAD_COLOR);
-    if (decoded.empty() || decoded.rows != T || decoded.cols != S)
-      return make_error(ErrorCode::kInternal, "plane JPEG " + std::to_string(j) + " does not decode");
+    auto decoding = decode_image(jpeg.value(), "plane JPEG " + std::to_string(j), ImageDecode::kBgr8);
+    if (!decoding) return make_error(ErrorCode::kInternal, decoding.error().message);
+    const cv::Mat decoded = std::move(decoding.value());
+    if (decoded.rows != T || decoded.cols != S)
+      return make_error(ErrorCode::kInternal, "plane JPEG " + std::to_string(j) + " does not decode to its size");
     for (int ch = 0; ch < 3; ++ch)
       for (int y = 0; y < T; ++y)
         for (int x = 0; x < S; ++x)
@@ -451,9 +452,10 @@ Result<RbfBasis> read_relight_rbf(const fs::path& where) {
     bytes << f.rdbuf();
     b.plane_jpeg.push_back(bytes.str());
     const std::string& s = b.plane_jpeg.back();
-    const cv::Mat bgr =
-        cv::imdecode(cv::Mat(1, static_cast<int>(s.size()), CV_8UC1, const_cast<char*>(s.data())), cv::IMREAD_COLOR);
-    if (bgr.empty() || bgr.rows != b.height || bgr.cols != b.width)
+    auto decoded = decode_image(s, file.string(), ImageDecode::kBgr8);
+    if (!decoded) return decoded.error();
+    const cv::Mat bgr = std::move(decoded.value());
+    if (bgr.rows != b.height || bgr.cols != b.width)
       return corrupt(file.filename().string() + " does not decode to " + std::to_string(b.width) + "x" +
                      std::to_string(b.height));
     for (size_t ch = 0; ch < 3 && 3 * jpeg + ch < P; ++ch)

@@ -156,7 +156,7 @@ class DecodedRows final : public RowSource {
       if (!image) return image.error();
       src->image_ = image.value();
     } else {
-      auto decoded = read_png(path);  // any format OpenCV decodes, depth kept
+      auto decoded = read_png(path);  // PNG or JPEG, depth kept
       if (!decoded) return decoded.error();
       cv::Mat& image = decoded.value();
       const int code = image.channels() == 1   ? cv::COLOR_GRAY2RGB

@@ -66,6 +66,7 @@ inline SyntheticStack write_synthetic_stack(const std::filesystem::path& folder,
         for (int c = 0; c < 3; ++c)
           bgr.at<cv::Vec3b>(row, s)[2 - c] = static_cast<uint8_t>(std::lround(std::clamp(rgb[c], 0.0, 1.0) * 255));
       }
+    // OpenCV's imgcodecs writes the stacks: an encoder independent of vdrig's libjpeg and libpng readers.
     cv::imwrite((folder / name).string(), bgr, {cv::IMWRITE_JPEG_QUALITY, 95});
     const Vec3d& l = stack.lights[static_cast<size_t>(v)];
     char line[160];

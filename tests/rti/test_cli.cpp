@@ -16,6 +16,21 @@ using test::ProcessRun;
 /// `vdrig args` with stdout and stderr together in `out` (the tests look for messages of either).
 ProcessRun vdrig(const std::string& args) { return test::run_vdrig(args, {.timeout_s = 120, .merge_stderr = true}); }
 
+// Issue #25: OpenCV's imgcodecs (Debian's links GDAL, GDCM, HDF5, Poppler...) cost every vdrig process ~0.15 s CPU
+// and 50 MB before main, more than a small stack's whole fit. Images go through libpng and libjpeg instead; neither
+// vdrig nor vdrigd may load imgcodecs, highgui, videoio or GDAL, directly or through another library.
+TEST(RtiCli, ExecutablesLoadNoOpenCvImgcodecs) {
+  for (const std::string& exe : {std::string(VDRIG_CLI_PATH), std::string(VDRIG_VDRIGD_PATH)}) {
+    const ProcessRun ldd = test::run_process({"/usr/bin/ldd", exe});
+    ASSERT_EQ(ldd.exit_code, 0) << ldd.out << ldd.err;
+    EXPECT_NE(ldd.out.find("libopencv_core"), std::string::npos) << ldd.out;  // ldd did list the libraries
+    EXPECT_NE(ldd.out.find("libpng16"), std::string::npos) << ldd.out;
+    EXPECT_NE(ldd.out.find("libjpeg"), std::string::npos) << ldd.out;
+    for (const char* banned : {"libopencv_imgcodecs", "libopencv_highgui", "libopencv_videoio", "libgdal"})
+      EXPECT_EQ(ldd.out.find(banned), std::string::npos) << exe << " loads " << banned;
+  }
+}
+
 TEST(RtiCli, ImportFitExport) {
   test::TempDir dir("rti_cli");
   std::filesystem::create_directories(dir / "stack");
