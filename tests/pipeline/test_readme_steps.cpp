@@ -119,9 +119,9 @@ TEST(ReadmeSteps, EveryStepOfTheBlockRunsOnTheSimulatorInOrder) {
   EXPECT_GE(ran, 12) << "most of the block did not run";
 
   // What the block says the steps leave behind (after the shrink: 32x32 texels).
-  for (const char* made :
-       {"S/manifest.json", "S/hdr/view_0000.exr", "S/calib/views.json", "S/obsmap/32x32.vdobs", "S/maps/phong:auto.exr",
-        "S/maps/hsh:6.exr", "texel.png", "v40.exr", "orbit.png", "err.exr", "report.html"}) {
+  for (const char* made : {"B/manifest.json", "camera.yml", "S/manifest.json", "S/calib/response.json",
+                           "S/hdr/view_0000.exr", "S/calib/views.json", "S/obsmap/32x32.vdobs", "S/maps/phong:auto.exr",
+                           "S/maps/hsh:6.exr", "texel.png", "v40.exr", "orbit.png", "err.exr", "report.html"}) {
     EXPECT_TRUE(fs::exists(dir / made)) << made << " was not written by the README's steps";
   }
   fs::remove_all(dir);

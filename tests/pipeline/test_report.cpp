@@ -230,9 +230,15 @@ size_t count_of(const std::string& text, const std::string& what) {
 }
 
 /// A calib/views.json for `session` (camera.yml not written): every view posed with an error of 0.010 to 0.030 px,
-/// except view `too_far` (1.5 px, excluded at the 1 px threshold) and view `no_pose` (markers not found).
+/// except view `too_far` (1.5 px, excluded at the 1 px threshold) and view `no_pose` (markers not found). The
+/// kinematic fit of a views.json already there (the session's true calibration) is kept.
 void write_calibration(const capture::Session& session, int too_far, int no_pose) {
   calib::ViewsFile file;
+  if (fs::exists(session.layout().views_file())) {
+    auto earlier = calib::read_views_json(session.layout().views_file());
+    ASSERT_TRUE(earlier) << earlier.error().describe();
+    file.kinematics = earlier->kinematics;
+  }
   file.layout = calib::MarkerLayout::corners(session.manifest().surface_width_mm, session.manifest().surface_height_mm);
   for (const capture::PlannedView& planned : session.manifest().views) {
     calib::ViewRecord v;
