@@ -20,6 +20,7 @@
 #include <cstring>
 #include <memory>
 
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 // jpeglib.h needs size_t and FILE declared first.
 #include <jpeglib.h>

@@ -1,3 +1,4 @@
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 
 #include <ImfChannelList.h>

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <opencv2/imgproc.hpp>
 
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 
 namespace vdrig::pipeline::html {

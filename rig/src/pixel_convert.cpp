@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 
 namespace vdrig::rig {

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 

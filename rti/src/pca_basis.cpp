@@ -14,6 +14,7 @@
 
 #include "jpeg_444.hpp"
 #include "vdrig/core/file_write.hpp"
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
 
