@@ -1,5 +1,5 @@
-#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/core/image_codec.hpp"
 
 #include <ImfChannelList.h>
 #include <ImfDoubleAttribute.h>
