@@ -85,6 +85,23 @@ Status clear_earlier_demo(const fs::path& session_dir) {
   return Status::ok();
 }
 
+/// A session of the simulated rig showing `scene`, marked as the demo's (clear_earlier_demo may replace it), with
+/// the views' progress on stdout: the chessboard session and the session of the scene are captured alike.
+Result<capture::Session> capture_demo_session(const fs::path& dir, const std::string& scene, const std::string& scheme,
+                                              std::vector<double> exposures_s) {
+  pipeline::CaptureRequest req;
+  req.out_dir = dir;
+  req.manifest_extra = {{"created_by", kDemoMark}};
+  req.rig_config = sim::sim_rig_config({{"scene", scene}});
+  req.scheme = scheme;
+  req.exposures_s = std::move(exposures_s);
+  ProgressLine progress;
+  req.on_view = [&progress](int done, int total) { progress.update(done, total, "    views %d/%d", done, total); };
+  auto session = pipeline::capture_session(req);
+  progress.finish();
+  return session;
+}
+
 Status run_demo(const DemoArgs& a) {
   auto logger = log::get("app");
   const fs::path out = fs::absolute(a.out);
@@ -118,18 +135,7 @@ Status run_demo(const DemoArgs& a) {
   // Intrinsics as on a real rig: a session of a chessboard, calibrated from its images.
   std::printf("1/%d chessboard capture: scene chessboard, scheme %s -> %s\n", kSteps, a.chessboard_scheme.c_str(),
               chessboard_dir.c_str());
-  pipeline::CaptureRequest board_req;
-  board_req.out_dir = chessboard_dir;
-  board_req.manifest_extra = {{"created_by", kDemoMark}};
-  board_req.rig_config = sim::sim_rig_config({{"scene", "chessboard"}});
-  board_req.scheme = a.chessboard_scheme;
-  board_req.exposures_s = {1.0, 0.25};
-  ProgressLine board_progress;
-  board_req.on_view = [&board_progress](int done, int total) {
-    board_progress.update(done, total, "    views %d/%d", done, total);
-  };
-  auto board_session = pipeline::capture_session(board_req);
-  board_progress.finish();
+  auto board_session = capture_demo_session(chessboard_dir, "chessboard", a.chessboard_scheme, {1.0, 0.25});
   if (!board_session) return board_session.error();
   end_step("chessboard capture");
 
@@ -152,18 +158,7 @@ Status run_demo(const DemoArgs& a) {
 
   std::printf("3/%d capture: scene %s, scheme %s -> %s\n", kSteps, a.scene.c_str(), a.scheme.c_str(),
               session_dir.c_str());
-  pipeline::CaptureRequest req;
-  req.out_dir = session_dir;
-  req.manifest_extra = {{"created_by", kDemoMark}};
-  req.rig_config = sim::sim_rig_config({{"scene", a.scene}});
-  req.scheme = a.scheme;
-  req.exposures_s = {1.0, 0.25, 0.0625};
-  ProgressLine capture_progress;
-  req.on_view = [&capture_progress](int done, int total) {
-    capture_progress.update(done, total, "    views %d/%d", done, total);
-  };
-  auto session = pipeline::capture_session(req);
-  capture_progress.finish();
+  auto session = capture_demo_session(session_dir, a.scene, a.scheme, {1.0, 0.25, 0.0625});
   if (!session) return session.error();
   const int n_views = static_cast<int>(session->manifest().views.size());
   end_step("capture");
