@@ -30,6 +30,15 @@ Result<std::optional<GroundTruth>> ground_truth_of(const nlohmann::json& rig_con
   return std::optional<GroundTruth>(std::move(truth));
 }
 
+std::optional<sim::Scene> simulated_scene_of(const nlohmann::json& rig_config) {
+  if (!rig_config.is_object() || !rig_config.contains("sim")) return std::nullopt;
+  auto config = sim::SimConfig::from_json(rig_config["sim"]);
+  if (!config) return std::nullopt;
+  auto scene = sim::make_scene(config->scene);
+  if (!scene) return std::nullopt;
+  return std::optional<sim::Scene>(std::move(scene.value()));
+}
+
 namespace {
 
 constexpr float kOutside = -1.0f, kMixed = -2.0f;
@@ -104,11 +113,7 @@ std::string session_scene_name(const std::filesystem::path& dir) {
   if (dir.empty() || !std::filesystem::is_directory(dir, ec)) return "";
   auto session = capture::Session::open(dir);
   if (!session) return "";
-  const nlohmann::json& rig = session->manifest().rig_config;
-  if (!rig.contains("sim")) return "";
-  auto config = sim::SimConfig::from_json(rig["sim"]);
-  if (!config) return "";
-  auto scene = sim::make_scene(config->scene);
+  const auto scene = simulated_scene_of(session->manifest().rig_config);
   return scene ? scene->name : "";
 }
 

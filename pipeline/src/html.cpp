@@ -57,38 +57,6 @@ std::string scale_label(double value, double lo, double hi) {
   return significant(value, 3);
 }
 
-Ticks nice_ticks(double lo, double hi, int max_ticks) {
-  Ticks ticks;
-  if (!std::isfinite(lo) || !std::isfinite(hi) || !(hi > lo) || max_ticks < 2) {
-    ticks.values = {std::isfinite(lo) ? lo : 0.0};
-    return ticks;
-  }
-  // The smallest step of 1, 2 or 5 x 10^k that fits the range in max_ticks ticks.
-  const double raw = (hi - lo) / (max_ticks - 1);
-  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
-  ticks.step = 10 * decade;
-  for (double m : {1.0, 2.0, 5.0, 10.0})
-    if (m * decade >= raw * (1 - 1e-9)) {
-      ticks.step = m * decade;
-      break;
-    }
-  const double first = std::ceil(lo / ticks.step - 1e-9);
-  for (double k = first; k * ticks.step <= hi + 1e-9 * ticks.step && ticks.values.size() <= size_t(max_ticks); ++k)
-    ticks.values.push_back(k * ticks.step);
-  return ticks;
-}
-
-std::string tick_label(double value, double step) {
-  if (!std::isfinite(value)) return significant(value);
-  if (!(step > 0) || !std::isfinite(step)) return significant(value, 3);
-  if (std::abs(value) < 1e-6 * step) return "0";
-  if (step < 1e-4) return significant(value, std::max(1, 1 + int(std::floor(std::log10(std::abs(value) / step)))));
-  const int decimals = std::max(0, int(std::ceil(-std::log10(step) - 1e-9)));
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
-  return buf;
-}
-
 std::string base64(std::string_view bytes) {
   static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;

@@ -10,6 +10,7 @@
 
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/pipeline/markup.hpp"
+#include "vdrig/viewer/plot.hpp"
 
 namespace vdrig::pipeline::html {
 
@@ -28,18 +29,12 @@ std::string with_uncertainty(double value, double sigma);
 /// range (a colour-bar minimum of 2.2e-17 on a 0..0.04 scale is 0).
 std::string scale_label(double value, double lo, double hi);
 
-/// Axis or colour-bar ticks between lo and hi: multiples of a step of 1, 2 or 5 x 10^k, at most `max_ticks` of them
-/// (fewer when the range is narrow), the first at or above lo, the last at or below hi. One tick at lo when the range
-/// is empty or not finite.
-struct Ticks {
-  std::vector<double> values;
-  double step = 0;
-};
-Ticks nice_ticks(double lo, double hi, int max_ticks = 6);
-
-/// A tick's label: `value` with the decimals its step needs ("0.005", "0.01", "25"), 0 for a value that is zero at the
-/// step's scale (no "-0" or "1.7e-18"), scientific for steps below 1e-4 ("2e-05").
-std::string tick_label(double value, double step);
+/// Axis or colour-bar ticks and their labels: the plots' own (viewer/plot.hpp: multiples of 1, 2 or 5 x 10^k,
+/// labelled with the decimals of the step), so the report's bars and colour bars tick as its x-y plots and the
+/// inspector's do.
+using Ticks = viewer::plot::Ticks;
+using viewer::plot::nice_ticks;
+using viewer::plot::tick_label;
 
 /// RFC 4648 base64 of `bytes` (with '=' padding), for data: URIs.
 std::string base64(std::string_view bytes);

@@ -22,10 +22,13 @@
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
+#include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
+#include "vdrig/viewer/texel_inspector.hpp"
 
 namespace vdrig::pipeline {
 namespace fs = std::filesystem;
+namespace plot = viewer::plot;
 namespace {
 
 using html::colour_bar;
@@ -542,6 +545,74 @@ std::string maps_section(const ReportData& d) {
   return section("maps", "Fitted maps", body);
 }
 
+/// The maps' error against the simulator's truth, the figures `vdrig eval MAP --scene SCENE --session S` prints: only
+/// for a session the simulator captured from a scene it knows (simulated_scene_of), and only through eval_stage
+/// (evaluate_map), the one part of the pipeline that reads the truth; no other section uses it. A real rig's
+/// session has no truth, and the section says so.
+std::string eval_section(const ReportData& d) {
+  const std::string title = "Error against the simulator's truth";
+  const capture::Session& s = *d.session;
+  const std::optional<sim::Scene> scene = simulated_scene_of(s.manifest().rig_config);
+  if (!scene)
+    return section("eval", title,
+                   "<p>No truth to compare with: the session was not captured by the simulator from a scene it knows "
+                   "(a real rig's session is judged by its held-out error and <code>vdrig compare</code>).</p>\n");
+  if (d.options->eval_directions <= 0)
+    return section("eval", title, "<p>Not evaluated (the report was asked for no dense directions).</p>\n");
+  if (d.map_files.empty()) return section("eval", title, missing("a fitted map (see Fitted maps)"));
+  const std::string dir = s.dir().string();
+  std::string body = "<p>The session was captured by the simulator from scene <code>" + escape_html(scene->name) +
+                     "</code>, so its truth is known: each map is evaluated as <code>vdrig eval MAP --scene " +
+                     escape_html(scene->name) + " --session " + escape_html(dir) +
+                     "</code> evaluates it (the same code and figures). Per material (texels on one material only): "
+                     "the relative RMS error of the map's radiance against the truth, in %, over " +
+                     std::to_string(d.options->eval_directions) +
+                     " directions spread over the hemisphere and over the session's views; the Phong parameters' "
+                     "relative errors where the truth and the model have them.</p>\n";
+  const auto pct = [](double x) { return std::isfinite(x) ? html::number("%.2f", 100.0 * x) : std::string("&#8211;"); };
+  for (const fs::path& file : d.map_files) {
+    body += "<article class=\"eval\"><h3>" + escape_html(file.filename().string()) + "</h3>\n";
+    auto map = fitting::ParameterMap::read(file);
+    EvalOptions options;
+    options.dense_directions = d.options->eval_directions;
+    options.session_dir = s.dir();
+    auto report = map ? evaluate_map(map.value(), scene.value(), options) : Result<EvalReport>(map.error());
+    if (!report) {
+      body += missing("an evaluation of this map: " + escape_html(report.error().message)) + "</article>\n";
+      continue;
+    }
+    bool phong = false;
+    for (const MaterialEval& m : report->materials) phong = phong || m.has_phong;
+    const bool session = report->session_views > 0;
+    body +=
+        "<div class=\"scroll\"><table class=\"eval\"><thead><tr><th>material</th><th>texels</th><th>mean %</th>"
+        "<th>p95 %</th><th>p99 %</th><th>max %</th>" +
+        std::string(session ? "<th>at the views: mean %</th><th>p95 %</th>" : "") +
+        (phong ? "<th>Kd err %</th><th>Ks err %</th><th>m err %</th>" : "") + "</tr></thead><tbody>\n";
+    for (const MaterialEval& m : report->materials) {
+      body += "<tr><td>" + escape_html(m.name) + "</td><td>" + std::to_string(m.texels) + "</td>";
+      for (double x : {m.dense.mean, m.dense.p95, m.dense.p99, m.dense.max}) body += "<td>" + pct(x) + "</td>";
+      if (session) body += "<td>" + pct(m.session.mean) + "</td><td>" + pct(m.session.p95) + "</td>";
+      if (phong)
+        for (double x : {m.phong.kd_rel, m.phong.ks_rel, m.phong.shininess_rel})
+          body += "<td>" + (m.has_phong ? pct(x) : std::string("&#8211;")) + "</td>";
+      body += "</tr>\n";
+    }
+    body += "</tbody></table></div>\n";
+    if (report->materials.empty()) body += missing("texels entirely on one material (the map is too coarse)");
+    for (const std::string& warning : report->warnings) body += "<p class=\"missing\">" + escape_html(warning) + "</p>";
+    if (const int rel = report->error_map.find("rel_rms"); rel >= 0) {
+      cv::Mat percent = report->error_map.channels[rel] * 100.0;
+      body += "<div class=\"row\">" +
+              false_colour(percent, "relative RMS error", d.options->map_image_px,
+                           "per texel, over the dense directions (edges of materials included)", "%") +
+              "</div>\n";
+    }
+    body += "</article>\n";
+  }
+  return section("eval", title, body);
+}
+
 Result<std::string> compare_section(const ReportData& d) {
   const fs::path file =
       d.options->compare_json.empty() ? d.session->layout().compare_dir() / "compare.json" : d.options->compare_json;
@@ -627,10 +698,15 @@ std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapRe
   const auto values = map.parameters(pick.s, pick.t);
   for (size_t i = 0; i < names.size() && i < values.size(); ++i)
     params += (params.empty() ? "" : ", ") + names[i] + " " + html::number("%.4g", values[i]);
-  return "<figure class=\"texel\">" + polar_plot(points, {}, 260) + "<figcaption>Texel " + std::to_string(pick.s) +
-         "," + std::to_string(pick.t) + " (" + escape_html(pick.why) + "), " + std::to_string(o.size()) +
-         " observations; large points: held-out views.<br>" + colour_bar(0, worst, "|model - observed| (RGB norm)") +
-         "<br><small>" + escape_html(params) + "</small></figcaption></figure>\n";
+  // The inspector's curve plot (`vdrig inspect`, the viewer's overlay), from the same description (viewer/plot.hpp).
+  plot::Figure curve = viewer::curve_figure(viewer::inspect_texel(map, pick.s, pick.t, o, held_out));
+  curve.width_px = 420;
+  curve.height_px = 260;
+  return "<figure class=\"texel\">" + polar_plot(points, {}, 260) + plot::to_svg(curve) + "<figcaption>Texel " +
+         std::to_string(pick.s) + "," + std::to_string(pick.t) + " (" + escape_html(pick.why) + "), " +
+         std::to_string(o.size()) + " observations; large points: held-out views.<br>" +
+         colour_bar(0, worst, "|model - observed| (RGB norm)") + "<br><small>" + escape_html(params) +
+         "</small></figcaption></figure>\n";
 }
 
 std::string texels_section(const ReportData& d) {
@@ -799,7 +875,7 @@ th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
 .wide { max-width: 100%; overflow-x: auto; } /* tables of thumbnails scroll inside the page at any width */
 .missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; } figure { margin: 0.5em 0; } figcaption { font-size: 0.8em; }
-.texel { max-width: 280px; } .mapimage { max-width: 262px; }
+.texel { max-width: 700px; } .mapimage { max-width: 262px; }
 .thumbs { display: flex; flex-wrap: wrap; gap: 4px; margin-bottom: 1em; }
 .thumb { margin: 0; padding: 1px; border: 2px solid transparent; text-align: center; }
 .thumb img { display: block; image-rendering: auto; } .thumb figcaption { font-size: 0.7em; }
@@ -832,14 +908,15 @@ Result<std::string> build_report_html(const fs::path& session_dir, const ReportO
   auto compare = compare_section(data);
   if (!compare) return compare.error();
   std::string sections = coverage_section(data) + views_section(data) + calibration_section(data) + maps_section(data) +
-                         compare.value() + texels_section(data);
+                         eval_section(data) + compare.value() + texels_section(data);
   const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   sections += provenance_section(data, build_s);
   const std::string title = "vdrig session report: " + fs::absolute(session_dir).filename().string();
   return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + escape_html(title) +
          "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n<h1>" + escape_html(title) +
          "</h1>\n<nav><a href=\"#coverage\">coverage</a><a href=\"#views\">views</a><a "
-         "href=\"#calibration\">calibration</a><a href=\"#maps\">maps</a><a href=\"#compare\">compare</a><a "
+         "href=\"#calibration\">calibration</a><a href=\"#maps\">maps</a><a href=\"#eval\">truth</a><a "
+         "href=\"#compare\">compare</a><a "
          "href=\"#texels\">texels</a><a href=\"#provenance\">provenance</a></nav>\n" +
          sections + "</body>\n</html>\n";
 }

@@ -14,7 +14,9 @@
 
 #include "small_session.hpp"
 #include "vdrig/calib/extrinsics.hpp"
+#include "vdrig/core/file_read.hpp"
 #include "vdrig/core/file_write.hpp"
+#include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
 #include "vdrig/test/process.hpp"
@@ -24,7 +26,7 @@ namespace vdrig::pipeline {
 namespace {
 namespace fs = std::filesystem;
 
-const char* const kSections[] = {"coverage", "views", "calibration", "maps", "compare", "texels", "provenance"};
+const char* const kSections[] = {"coverage", "views", "calibration", "maps", "eval", "compare", "texels", "provenance"};
 
 /// The text of <section id="id"> ... </section>.
 std::string section_of(const std::string& html, const std::string& id) {
@@ -323,6 +325,60 @@ TEST_F(Report, CalibrationChartFitsItsScaleAndLabelsTheViews) {
   EXPECT_NE(calibration.find(">reprojection error, px</text>"), std::string::npos);
   EXPECT_NE(calibration.find(">view</text>"), std::string::npos);
   EXPECT_NE(calibration.find(std::to_string(n - 2) + " of " + std::to_string(n) + " views usable"), std::string::npos);
+}
+
+// A simulated session's maps are evaluated against the truth, the figures `vdrig eval MAP --scene S --session S`
+// prints (evaluate_map with its defaults: 1000 directions and the session's views); a session the simulator did not
+// capture has no truth, and the section says so without a table.
+TEST_F(Report, SimulatedSessionShowsTheErrorAgainstTheTruthAsVdrigEval) {
+  auto session = test::small_merged_session(dir_ / "session");
+  ASSERT_TRUE(session) << session.error().describe();
+  auto obs_file = session_obsmap_file(session.value(), 8, 8);
+  ASSERT_TRUE(obs_file) << obs_file.error().describe();
+  auto obs = fitting::ObsMapReader::open(obs_file.value());
+  ASSERT_TRUE(obs);
+  auto map = fitting::fit_parameter_map(obs.value(), fitting::MapFitOptions{});
+  ASSERT_TRUE(map) << map.error().describe();
+  fs::create_directories(session->layout().maps_dir());
+  ASSERT_TRUE(map->write(session->layout().parameter_map_file("phong:1")));
+
+  auto html = build_report_html(dir_ / "session");
+  ASSERT_TRUE(html) << html.error().describe();
+  const std::string eval = section_of(*html, "eval");
+  EXPECT_NE(eval.find("scene <code>patchwork</code>"), std::string::npos) << eval;
+  EXPECT_NE(eval.find("vdrig eval MAP --scene patchwork --session"), std::string::npos) << eval;
+  auto scene = sim::make_scene("patchwork");
+  ASSERT_TRUE(scene);
+  EvalOptions options;  // vdrig eval's defaults, with --session
+  options.session_dir = dir_ / "session";
+  auto expected = evaluate_map(map.value(), scene.value(), options);
+  ASSERT_TRUE(expected) << expected.error().describe();
+  ASSERT_FALSE(expected->materials.empty());
+  ASSERT_GT(expected->session_views, 0);
+  for (const MaterialEval& m : expected->materials) {
+    char row[512];
+    std::snprintf(row, sizeof row,
+                  "<tr><td>%s</td><td>%d</td><td>%.2f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td>"
+                  "<td>%.2f</td>",
+                  m.name.c_str(), m.texels, 100 * m.dense.mean, 100 * m.dense.p95, 100 * m.dense.p99, 100 * m.dense.max,
+                  100 * m.session.mean, 100 * m.session.p95);
+    EXPECT_NE(eval.find(row), std::string::npos) << "the row vdrig eval prints: " << row << "\nin " << eval;
+  }
+  const auto images = images_of(eval);
+  ASSERT_EQ(images.size(), 1u) << "the per-texel error map";
+  EXPECT_EQ(images[0].first, "relative RMS error");
+  EXPECT_EQ(images[0].second.cols, 8);
+
+  // The same session as a real rig's (its rig config without a "sim" section): no truth, no table.
+  auto manifest = read_json_file(session->layout().manifest_file());
+  ASSERT_TRUE(manifest);
+  (*manifest)["rig_config"] = {{"backend", "v4l2"}};
+  ASSERT_TRUE(write_file_atomic(session->layout().manifest_file(), manifest->dump(2)));
+  auto real = build_report_html(dir_ / "session");
+  ASSERT_TRUE(real) << real.error().describe();
+  const std::string no_truth = section_of(*real, "eval");
+  EXPECT_NE(no_truth.find("No truth to compare with"), std::string::npos) << no_truth;
+  EXPECT_EQ(no_truth.find("<table"), std::string::npos);
 }
 
 TEST_F(Report, DamagedSessionIsAClearError) {

@@ -101,54 +101,46 @@ TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, co
   return r;
 }
 
+plot::Figure curve_figure(const TexelInspection& r) {
+  constexpr plot::Rgb kChannel[3] = {{220, 40, 40}, {40, 160, 40}, {40, 60, 220}};  // R, G, B
+  constexpr const char* kName[3] = {"R", "G", "B"};
+  double y_max = 0;
+  for (const auto& c : r.curve) y_max = std::max(y_max, c.maxCoeff());
+  for (const auto& o : r.observations)
+    if (o.off_circle_deg <= r.band_deg) y_max = std::max(y_max, o.observed.maxCoeff());
+  plot::Figure f;
+  f.title = "radiance along the great circle through n and the peak";
+  f.x = plot::stepped_axis("angle from the normal, toward the peak (deg)", -90, 90, 30);
+  f.y = plot::nice_axis("radiance (HDR units)", 0, y_max > 0 ? y_max : 1.0, 5);
+  for (int c = 0; c < 3; ++c) {
+    plot::Series model{std::string("model ") + kName[c], kChannel[c], {}};
+    for (size_t i = 0; i < r.curve.size(); ++i) model.points.emplace_back(r.curve_deg[i], r.curve[i][c]);
+    f.series.push_back(model);
+  }
+  for (int c = 0; c < 3; ++c) {
+    plot::Series seen{c == 0 ? "observed (within " + format_value(r.band_deg) + " deg)" : "", kChannel[c], {}};
+    plot::Series held{c == 0 ? "held out" : "", kChannel[c], {}};
+    seen.line = held.line = false;
+    seen.marker = plot::Marker::kCircle;
+    held.marker = plot::Marker::kCross;
+    held.marker_px = 4;
+    for (const auto& o : r.observations)
+      if (o.off_circle_deg <= r.band_deg) (o.held_out ? held : seen).points.emplace_back(o.circle_deg, o.observed[c]);
+    f.series.push_back(seen);
+    if (!held.points.empty()) f.series.push_back(held);
+  }
+  return f;
+}
+
 cv::Mat plot_inspection(const TexelInspection& r, int width, int height) {
   VDRIG_CHECK(width >= 480 && height >= 270, "plot_inspection: the plot needs at least 480 x 270 pixels");
   cv::Mat img(height, width, CV_8UC3, cv::Scalar(250, 250, 250));
   const int text_h = std::max(110, height / 4);
   const int plot_h = height - text_h;
   const int curve_w = width * 3 / 5;
-  const cv::Scalar channel_colour[3] = {{40, 40, 220}, {40, 170, 40}, {220, 60, 40}};  // R, G, B in BGR
 
-  // --- Curve plot: radiance along the great circle, with the observations near it ---
-  const cv::Rect area(55, 30, curve_w - 75, plot_h - 70);
-  double y_max = 0;
-  for (const auto& c : r.curve) y_max = std::max(y_max, c.maxCoeff());
-  for (const auto& o : r.observations)
-    if (o.off_circle_deg <= r.band_deg) y_max = std::max(y_max, o.observed.maxCoeff());
-  y_max = y_max > 0 ? 1.1 * y_max : 1.0;
-  auto to_px = [&](double a_deg, double y) {
-    return cv::Point(
-        area.x + static_cast<int>(std::lround((a_deg + 90.0) / 180.0 * area.width)),
-        area.y + area.height - static_cast<int>(std::lround(std::clamp(y / y_max, 0.0, 1.0) * area.height)));
-  };
-  cv::rectangle(img, area, cv::Scalar(120, 120, 120));
-  for (int a = -90; a <= 90; a += 30) {
-    const cv::Point p = to_px(a, 0);
-    cv::line(img, p, p + cv::Point(0, 4), cv::Scalar(80, 80, 80));
-    text(img, std::to_string(a), p + cv::Point(-12, 18), 0.4);
-  }
-  for (int k = 0; k <= 4; ++k) {
-    const cv::Point p = to_px(-90, y_max / 1.1 * k / 4);
-    cv::line(img, p, p - cv::Point(4, 0), cv::Scalar(80, 80, 80));
-    text(img, format_value(y_max / 1.1 * k / 4), p + cv::Point(-52, 4), 0.35);
-  }
-  text(img, "radiance along the great circle through n and the peak (deg)", cv::Point(area.x, area.y - 10), 0.42);
-  for (int c = 0; c < 3; ++c)
-    for (size_t i = 1; i < r.curve.size(); ++i)
-      cv::line(img, to_px(r.curve_deg[i - 1], r.curve[i - 1][c]), to_px(r.curve_deg[i], r.curve[i][c]),
-               channel_colour[c], 2, cv::LINE_AA);
-  for (const auto& o : r.observations) {
-    if (o.off_circle_deg > r.band_deg) continue;
-    for (int c = 0; c < 3; ++c) {
-      const cv::Point p = to_px(o.circle_deg, o.observed[c]);
-      if (o.held_out)
-        cv::drawMarker(img, p, channel_colour[c], cv::MARKER_TILTED_CROSS, 9, 2);
-      else
-        cv::circle(img, p, 3, channel_colour[c], 1, cv::LINE_AA);
-    }
-  }
-  text(img, "o observed (within " + format_value(r.band_deg) + " deg)   x held out   - model",
-       cv::Point(area.x, area.y + area.height + 38), 0.4);
+  // --- Curve plot: radiance along the great circle, with the observations near it (plot.hpp) ---
+  plot::draw(curve_figure(r), img, cv::Rect(0, 0, curve_w, plot_h));
 
   // --- Hemisphere: observations at (d.x, d.y), coloured by residual ---
   const int radius = std::min(width - curve_w - 40, plot_h - 70) / 2;

@@ -47,6 +47,11 @@ struct GroundTruth {
 /// section or an unknown scene is the simulator's error.
 Result<std::optional<GroundTruth>> ground_truth_of(const nlohmann::json& rig_config);
 
+/// The simulated scene a session was captured from, as its rig config (manifest) names it; nullopt for a real rig's
+/// session (no truth) and for a scene the simulator cannot make (a FILE.json gone). `vdrig report` asks it before it
+/// evaluates a session's maps with evaluate_map, the one way the report reaches the truth.
+std::optional<sim::Scene> simulated_scene_of(const nlohmann::json& rig_config);
+
 struct EvalOptions {
   int dense_directions = 1000;  // Fibonacci points on the upper hemisphere (uniform in solid angle)
   /// A session whose views' directions are evaluated too (the view centres as the stage measured them, seen from

@@ -7,10 +7,11 @@
 // (thumbnails of the merged views; per view: bracket exposures, saturated frames, clipped HDR fraction, capture time
 // from journal.jsonl), "calibration" (intrinsics with the reprojection RMS, per-view marker reprojection error, the
 // kinematic fit), "maps" (per fitted map: images of its parameters, false-colour fit residual, held-out error and
-// lobe count with colour bars), "compare" (the `vdrig compare` table with thumbnails, from
-// compare.json), "texels" (observations of the worst, the median and chosen texels on the hemisphere, coloured by
-// the fit's residual) and "provenance" (software version, stage timings, commands). A part of the session that is
-// not there yet (no calibration, no fit, no comparison) is named in its section with the command that makes it.
+// lobe count with colour bars), "eval" (a simulated session's maps against the truth, as `vdrig eval`), "compare" (the
+// `vdrig compare` table with thumbnails, from compare.json), "texels" (observations of the worst, the median and chosen
+// texels on the hemisphere, coloured by the fit's residual) and "provenance" (software version, stage timings,
+// commands). A part of the session that is not there yet (no calibration, no fit, no comparison) is named in its
+// section with the command that makes it.
 #pragma once
 
 #include <filesystem>
@@ -30,6 +31,7 @@ struct ReportOptions {
   int thumbnail_width_px = 200;  // compare thumbnails
   int map_image_px = 256;        // images of maps are shown this many pixels wide (pixelated; larger maps reduced)
   int view_thumbnail_px = 96;    // width of the views' thumbnails (0: none)
+  int eval_directions = 1000;    // a simulated session's error against the truth: as vdrig eval's (0: not evaluated)
 };
 
 /// The report's HTML. Errors: a session that cannot be opened (no manifest, a damaged manifest or journal:

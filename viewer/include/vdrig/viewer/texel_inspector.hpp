@@ -13,8 +13,8 @@
 //    residual (model - observed, mean over RGB);
 //  - the texel's parameters, fit RMS and held-out RMS (holdout.R/G/B channels, when the fit held views out).
 //
-// Plots are drawn with OpenCV (cv::line / cv::circle / cv::putText): no plotting library is packaged for C++ in
-// Debian that fits here (docs/viewer.md).
+// The curve is a plot::Figure (plot.hpp: one plotting path, SVG in the report, pixels here); the hemisphere and the
+// text are drawn with OpenCV.
 #pragma once
 
 #include <optional>
@@ -25,6 +25,7 @@
 #include "vdrig/core/camera.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/viewer/plot.hpp"
 
 namespace vdrig::viewer {
 
@@ -75,6 +76,11 @@ std::vector<int> held_out_views(const fitting::ParameterMap& map);
 /// included: fitting::ObservationMap::texel or ObsTile::texel without a held-out list).
 TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, const fitting::TexelObservations& obs,
                               const std::vector<int>& held_out = {}, const InspectOptions& options = {});
+
+/// The curve plot: the model's R, G, B radiance along the great circle, the observations within band_deg of it
+/// (circles; held-out views crosses), angle axis every 30 degrees, radiance axis with nice ticks. plot_inspection
+/// draws it as pixels, `vdrig report` as SVG.
+plot::Figure curve_figure(const TexelInspection& inspection);
 
 /// The plot (CV_8UC3 BGR, width x height, at least 480 x 270): curve plot left, hemisphere right, text below.
 cv::Mat plot_inspection(const TexelInspection& inspection, int width = 960, int height = 540);
