@@ -670,6 +670,36 @@ struct TexelPick {
   std::string why;
 };
 
+/// A texel's parameters as a table, one row per quantity with its colour channels or axes side by side ("kd (R, G, B)
+/// 0.31 0.22 0.12", "r0 (x, y, z)"), rather than a line of "kd.R 0.31, kd.G 0.22, ..." pairs.
+std::string parameter_table(const std::vector<std::string>& names, const std::vector<double>& values) {
+  std::vector<std::pair<std::string, std::string>> rows;  // quantity, cells
+  std::map<std::string, size_t> row_of;
+  std::map<std::string, std::string> components;
+  for (size_t i = 0; i < names.size() && i < values.size(); ++i) {
+    // The component is the part of the name that is one of R, G, B, x, y, z ("hsh.R.07": quantity "hsh.07", R).
+    std::string key, component;
+    size_t start = 0;
+    for (size_t end = 0; end != std::string::npos; start = end + 1) {
+      end = names[i].find('.', start);
+      const std::string part = names[i].substr(start, end == std::string::npos ? end : end - start);
+      if (component.empty() && part.size() == 1 && std::string("RGBxyz").find(part) != std::string::npos)
+        component = part;
+      else
+        key += (key.empty() ? "" : ".") + part;
+    }
+    const auto [it, added] = row_of.try_emplace(key, rows.size());
+    if (added) rows.push_back({key, ""});
+    rows[it->second].second += "<td>" + html::significant(values[i], 4) + "</td>";
+    if (!component.empty()) components[key] += (components[key].empty() ? "" : ", ") + component;
+  }
+  std::string table = "<table class=\"params\">";
+  for (const auto& [key, cells] : rows)
+    table += "<tr><th>" + escape_html(key + (components[key].empty() ? "" : " (" + components[key] + ")")) + "</th>" +
+             cells + "</tr>";
+  return table + "</table>";
+}
+
 std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapReader& obs, const TexelPick& pick,
                        const std::vector<int>& held_out) {
   auto tile = obs.read_tile_of_texel(pick.s, pick.t);
@@ -693,11 +723,7 @@ std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapRe
                           html::number("%.4g", rgb.x()) + " " + html::number("%.4g", rgb.y()) + " " +
                           html::number("%.4g", rgb.z()) + ", |residual| " + html::number("%.4g", residual[i])});
   }
-  std::string params;
-  const auto names = map.model().channels();
-  const auto values = map.parameters(pick.s, pick.t);
-  for (size_t i = 0; i < names.size() && i < values.size(); ++i)
-    params += (params.empty() ? "" : ", ") + names[i] + " " + html::number("%.4g", values[i]);
+  const std::string params = parameter_table(map.model().channels(), map.parameters(pick.s, pick.t));
   // The inspector's curve plot (`vdrig inspect`, the viewer's overlay), from the same description (viewer/plot.hpp).
   plot::Figure curve = viewer::curve_figure(viewer::inspect_texel(map, pick.s, pick.t, o, held_out));
   curve.width_px = 420;
@@ -705,16 +731,23 @@ std::string texel_plot(const fitting::ParameterMap& map, const fitting::ObsMapRe
   return "<figure class=\"texel\">" + polar_plot(points, {}, 260) + plot::to_svg(curve) + "<figcaption>Texel " +
          std::to_string(pick.s) + "," + std::to_string(pick.t) + " (" + escape_html(pick.why) + "), " +
          std::to_string(o.size()) + " observations; large points: held-out views.<br>" +
-         colour_bar(0, worst, "|model - observed| (RGB norm)") + "<br><small>" + escape_html(params) +
-         "</small></figcaption></figure>\n";
+         colour_bar(0, worst, "|model - observed| (RGB norm)") + params + "</figcaption></figure>\n";
 }
 
 std::string texels_section(const ReportData& d) {
   if (d.map_files.empty())
     return section("texels", "Texels on the hemisphere", missing("a fitted map (see Fitted maps)"));
-  // The first map that reads; its observation map at the same resolution.
-  std::string body;
+  // The most recently fitted map that reads (not the first by name: a user's latest fit is the one in question), with
+  // its observation map at the same resolution.
+  std::vector<std::pair<fs::file_time_type, fs::path>> by_age;
   for (const fs::path& file : d.map_files) {
+    std::error_code ec;
+    const auto written = fs::last_write_time(file, ec);
+    by_age.push_back({ec ? fs::file_time_type::min() : written, file});
+  }
+  std::stable_sort(by_age.begin(), by_age.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string body;
+  for (const auto& [written, file] : by_age) {
     auto map = fitting::ParameterMap::read(file);
     if (!map) continue;
     const fs::path obs_file = d.session->layout().obsmap_file(map->texels_s(), map->texels_t());
@@ -748,8 +781,9 @@ std::string texels_section(const ReportData& d) {
       else
         picks.push_back({s, t, "chosen"});
     }
-    body = "<p>Map <code>" + escape_html(file.filename().string()) +
-           "</code>: each point an observation of the texel from the direction it was seen (as the coverage plot), "
+    body = "<p>Map <code>" + escape_html(file.filename().string()) + "</code>" +
+           (d.map_files.size() > 1 ? " (the most recently fitted)" : "") +
+           ": each point an observation of the texel from the direction it was seen (as the coverage plot), "
            "coloured by the model's residual there.</p>\n<div class=\"row\">" +
            [&] {
              std::string plots;
@@ -875,7 +909,7 @@ th { background: #f3f3f3; text-align: left; } tr.incomplete { color: #a00; }
 .wide { max-width: 100%; overflow-x: auto; } /* tables of thumbnails scroll inside the page at any width */
 .missing { color: #a05000; background: #fff4e0; padding: 4px 8px; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; } figure { margin: 0.5em 0; } figcaption { font-size: 0.8em; }
-.texel { max-width: 700px; } .mapimage { max-width: 262px; }
+.texel { max-width: 700px; } .params td { text-align: right; } .mapimage { max-width: 262px; }
 .thumbs { display: flex; flex-wrap: wrap; gap: 4px; margin-bottom: 1em; }
 .thumb { margin: 0; padding: 1px; border: 2px solid transparent; text-align: center; }
 .thumb img { display: block; image-rendering: auto; } .thumb figcaption { font-size: 0.7em; }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cctype>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -341,9 +342,20 @@ TEST_F(Report, SimulatedSessionShowsTheErrorAgainstTheTruthAsVdrigEval) {
   ASSERT_TRUE(map) << map.error().describe();
   fs::create_directories(session->layout().maps_dir());
   ASSERT_TRUE(map->write(session->layout().parameter_map_file("phong:1")));
+  // An older fit, first by name: the texels are those of the latest fit.
+  const fs::path older = session->layout().parameter_map_file("a_older");
+  ASSERT_TRUE(map->write(older));
+  fs::last_write_time(older,
+                      fs::last_write_time(session->layout().parameter_map_file("phong:1")) - std::chrono::hours(1));
 
   auto html = build_report_html(dir_ / "session");
   ASSERT_TRUE(html) << html.error().describe();
+  const std::string texels = section_of(*html, "texels");
+  EXPECT_NE(texels.find("Map <code>phong:1.exr</code> (the most recently fitted)"), std::string::npos) << texels;
+  // Each texel (the worst and the median) with the inspector's curve plot, as SVG, and its parameters as a table.
+  EXPECT_EQ(count_of(texels, "<svg class=\"plot\""), 2u);
+  EXPECT_NE(texels.find("<th>kd (R, G, B)</th>"), std::string::npos) << texels;
+  EXPECT_EQ(texels.find("kd.R "), std::string::npos) << "no wall of name-value pairs";
   const std::string eval = section_of(*html, "eval");
   EXPECT_NE(eval.find("scene <code>patchwork</code>"), std::string::npos) << eval;
   EXPECT_NE(eval.find("vdrig eval MAP --scene patchwork --session"), std::string::npos) << eval;
@@ -365,7 +377,7 @@ TEST_F(Report, SimulatedSessionShowsTheErrorAgainstTheTruthAsVdrigEval) {
     EXPECT_NE(eval.find(row), std::string::npos) << "the row vdrig eval prints: " << row << "\nin " << eval;
   }
   const auto images = images_of(eval);
-  ASSERT_EQ(images.size(), 1u) << "the per-texel error map";
+  ASSERT_EQ(images.size(), 2u) << "the per-texel error map of each map";
   EXPECT_EQ(images[0].first, "relative RMS error");
   EXPECT_EQ(images[0].second.cols, 8);
 

@@ -236,7 +236,7 @@ std::vector<Shape> layout(const Figure& f) {
     if (s.marker != Marker::kNone)
       shapes.push_back(mark_shape(s.marker, {lx + 8, ly - 4}, s.colour, s.marker_px, "legend"));
     shapes.push_back(text_shape({lx + 20, ly}, s.name, kSmallFont, Shape::Anchor::kStart, "legend"));
-    lx += 28 + 5.6 * static_cast<double>(s.name.size());  // about the width of 10 px text
+    lx += 30 + 6.6 * static_cast<double>(s.name.size());  // at least the width of 10 px text, SVG or Hershey
   }
   return shapes;
 }

@@ -103,7 +103,6 @@ TexelInspection inspect_texel(const fitting::ParameterMap& map, int s, int t, co
 
 plot::Figure curve_figure(const TexelInspection& r) {
   constexpr plot::Rgb kChannel[3] = {{220, 40, 40}, {40, 160, 40}, {40, 60, 220}};  // R, G, B
-  constexpr const char* kName[3] = {"R", "G", "B"};
   double y_max = 0;
   for (const auto& c : r.curve) y_max = std::max(y_max, c.maxCoeff());
   for (const auto& o : r.observations)
@@ -113,7 +112,7 @@ plot::Figure curve_figure(const TexelInspection& r) {
   f.x = plot::stepped_axis("angle from the normal, toward the peak (deg)", -90, 90, 30);
   f.y = plot::nice_axis("radiance (HDR units)", 0, y_max > 0 ? y_max : 1.0, 5);
   for (int c = 0; c < 3; ++c) {
-    plot::Series model{std::string("model ") + kName[c], kChannel[c], {}};
+    plot::Series model{c == 0 ? "model (R, G, B)" : "", kChannel[c], {}};
     for (size_t i = 0; i < r.curve.size(); ++i) model.points.emplace_back(r.curve_deg[i], r.curve[i][c]);
     f.series.push_back(model);
   }
