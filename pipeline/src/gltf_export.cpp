@@ -38,7 +38,8 @@ void append_floats(std::string& bytes, std::initializer_list<float> values) {
 }  // namespace
 
 Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name) {
-  if (!dynamic_cast<const fitting::GgxModel*>(&map.model()))
+  const auto* ggx = dynamic_cast<const fitting::GgxModel*>(&map.model());
+  if (!ggx)
     return make_error(ErrorCode::kInvalidArgument,
                       "model " + map.model().name() +
                           " is view-only (the radiance toward each view under the session's light, not a "
@@ -57,7 +58,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   GltfExport result;
   // Image row y is texel row t = y (texel (0, 0) at the surface's smallest x and y), which glTF's UV (0, 0), the
   // image's first row, addresses: no flip.
-  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3);
+  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3), normal(T, S, CV_8UC3);
+  const bool normals = ggx->has_shading_normal();
   double f0_max = 0.0;
   bool f0_dielectric = true;
   for (int t = 0; t < T; ++t)
@@ -69,6 +71,13 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       // OpenCV's order is BGR.
       base.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(m.albedo.z()), srgb_code(m.albedo.y()), srgb_code(m.albedo.x()));
       mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(m.roughness), 0);  // B metallic 0, G roughness, R unused
+      if (normals) {
+        // Tangent space (gltf_export.hpp): red along the surface's +x (u), green along its -y (glTF's green points
+        // up the image, toward smaller v, i.e. smaller t), blue the geometric normal.
+        const Vec3d n = ggx->texel_material(map.parameters(s, t)).normal;
+        normal.at<cv::Vec3b>(t, s) =
+            cv::Vec3b(linear_code(0.5 + 0.5 * n.z()), linear_code(0.5 - 0.5 * n.y()), linear_code(0.5 + 0.5 * n.x()));
+      }
     }
   result.specular_extension = !f0_dielectric && f0_max > 0.0;
   if (result.specular_extension)
@@ -84,21 +93,26 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   append_floats(bin, {-w / 2, 0, h / 2, w / 2, 0, h / 2, w / 2, 0, -h / 2, -w / 2, 0, -h / 2});  // POSITION
   append_floats(bin, {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0});                                      // NORMAL
   append_floats(bin, {0, 0, 1, 0, 1, 1, 0, 1});                                                  // TEXCOORD_0
-  for (uint16_t i : {0, 1, 2, 0, 2, 3}) bin.append(reinterpret_cast<const char*>(&i), 2);        // 140 bytes in all
+  for (uint16_t i : {0, 1, 2, 0, 2, 3}) bin.append(reinterpret_cast<const char*>(&i), 2);        // 140 bytes
+  // TANGENT (normal maps only): +x, w = -1, so that glTF's bitangent cross(N, T) w = glTF +Z = the surface's -y, the
+  // direction of the normal map's green channel. Explicit, because the quad's UVs are mirrored (v grows with y while
+  // glTF's image rows run down): a renderer deriving tangents from UVs must get the same frame, and stating it
+  // removes one way of getting it wrong.
+  if (normals) append_floats(bin, {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1});  // 64 bytes, 204 in all
 
   const std::string bin_name = name + ".bin", base_name = name + "_basecolor.png",
-                    mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png";
+                    mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png",
+                    normal_name = name + "_normal.png";
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "vdrig export"}};
   if (result.specular_extension) gltf["extensionsUsed"] = {"KHR_materials_specular"};
   gltf["scene"] = 0;
   gltf["scenes"] = Json::array({{{"nodes", {0}}}});
   gltf["nodes"] = Json::array({{{"mesh", 0}, {"name", name}}});
-  gltf["meshes"] =
-      Json::array({{{"name", name},
-                    {"primitives", Json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}}},
-                                                 {"indices", 3},
-                                                 {"material", 0}}})}}});
+  Json attributes = {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}};
+  if (normals) attributes["TANGENT"] = 4;
+  gltf["meshes"] = Json::array(
+      {{{"name", name}, {"primitives", Json::array({{{"attributes", attributes}, {"indices", 3}, {"material", 0}}})}}});
   gltf["buffers"] = Json::array({{{"uri", bin_name}, {"byteLength", bin.size()}}});
   // One buffer view per accessor (several accessors in one view would need a byteStride).
   gltf["bufferViews"] = Json::array({
@@ -107,6 +121,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 32}, {"target", 34962}},   //
       {{"buffer", 0}, {"byteOffset", 128}, {"byteLength", 12}, {"target", 34963}},  // ELEMENT_ARRAY_BUFFER
   });
+  if (normals)
+    gltf["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 140}, {"byteLength", 64}, {"target", 34962}});
   gltf["accessors"] = Json::array({
       {{"bufferView", 0},
        {"componentType", 5126},
@@ -118,6 +134,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
       {{"bufferView", 3}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
   });
+  if (normals)
+    gltf["accessors"].push_back({{"bufferView", 4}, {"componentType", 5126}, {"count", 4}, {"type", "VEC4"}});
   // Texels are samples of the surface: linear filtering, clamped at the sample's edges.
   gltf["samplers"] = Json::array({{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}});
   Json images = Json::array({{{"uri", base_name}}, {{"uri", mr_name}}});
@@ -136,6 +154,11 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
         {"KHR_materials_specular",
          {{"specularFactor", 1.0}, {"specularColorFactor", {k, k, k}}, {"specularColorTexture", {{"index", 2}}}}}};
   }
+  if (normals) {
+    images.push_back({{"uri", normal_name}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    material["normalTexture"] = {{"index", textures.size() - 1}};
+  }
   gltf["images"] = images;
   gltf["textures"] = textures;
   gltf["materials"] = Json::array({material});
@@ -148,6 +171,10 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   if (result.specular_extension) {
     VDRIG_TRY(write_png(dir / spec_name, spec));
     result.written.push_back(dir / spec_name);
+  }
+  if (normals) {
+    VDRIG_TRY(write_png(dir / normal_name, normal));
+    result.written.push_back(dir / normal_name);
   }
   VDRIG_TRY(write_file_atomic(result.gltf, gltf.dump(1) + "\n"));
   result.written.push_back(result.gltf);

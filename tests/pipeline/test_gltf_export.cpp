@@ -149,6 +149,64 @@ TEST(GltfExport, ADielectricNeedsNoExtension) {
   EXPECT_EQ(report["warnings"], 0) << report.dump(1);
 }
 
+TEST(GltfExport, ShadingNormalsAsATangentSpaceNormalTexture) {
+  // ggx:iso+n's normals in normalTexture, read back through glTF's own definitions: the bitangent is
+  // cross(NORMAL, TANGENT.xyz) TANGENT.w, and the texture's green channel points up the image (toward smaller v),
+  // which the quad's UVs locate on the surface. Texel (1, 0) tilts toward the surface's +x, texel (2, 1) toward +y.
+  test::TempDir dir("gltf_export_normals");
+  fitting::ParameterMap map(fitting::parse_model("ggx:iso+n").value(), 3, 2, 300.0, 200.0);
+  const double tilt = std::sin(deg_to_rad(20.0));
+  for (int t = 0; t < 2; ++t)
+    for (int s = 0; s < 3; ++s) {
+      const double nx = s == 1 && t == 0 ? tilt : 0.0, ny = s == 2 && t == 1 ? tilt : 0.0;
+      map.set_parameters(s, t, std::vector<double>{0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.4, nx, ny, 0, 0, 1, 1, 1, 1});
+    }
+  auto written = export_gltf(map, dir, "bumped");
+  ASSERT_TRUE(written) << written.error().describe();
+  const nlohmann::json gltf = read_json(written->gltf);
+  const nlohmann::json& primitive = gltf["meshes"][0]["primitives"][0];
+  ASSERT_TRUE(primitive["attributes"].contains("TANGENT"));
+  const std::string bin = read_bytes(dir / "bumped.bin");
+  ASSERT_EQ(bin.size(), gltf["buffers"][0]["byteLength"].get<size_t>());
+  const auto& tangent_view =
+      gltf["bufferViews"][gltf["accessors"][primitive["attributes"]["TANGENT"].get<int>()]["bufferView"].get<int>()];
+  const size_t at = tangent_view["byteOffset"].get<size_t>();
+  const Vec3d n_gltf(float_at(bin, 48), float_at(bin, 52), float_at(bin, 56));  // vertex 0's NORMAL
+  const Vec3d tangent(float_at(bin, at), float_at(bin, at + 4), float_at(bin, at + 8));
+  const Vec3d bitangent = n_gltf.cross(tangent) * float_at(bin, at + 12);
+  // "Up the image" on the quad: the position's change toward smaller v, from vertices 0 and 3 (same u).
+  auto position = [&](size_t k) {
+    return Vec3d(float_at(bin, 12 * k), float_at(bin, 12 * k + 4), float_at(bin, 12 * k + 8));
+  };
+  auto v_of = [&](size_t k) { return float_at(bin, 96 + 8 * k + 4); };
+  const Vec3d up_image = (position(0) - position(3)) * (v_of(0) < v_of(3) ? 1.0 : -1.0);
+  EXPECT_GT(bitangent.dot(up_image.normalized()), 0.999);
+  const cv::Mat normal = read_png(dir / "bumped_normal.png").value();
+  ASSERT_EQ(normal.cols, 3);
+  ASSERT_EQ(normal.rows, 2);
+  const int source = gltf["textures"][gltf["materials"][0]["normalTexture"]["index"].get<int>()]["source"];
+  EXPECT_EQ(gltf["images"][source]["uri"], "bumped_normal.png");
+  for (int t = 0; t < 2; ++t)
+    for (int s = 0; s < 3; ++s) {
+      const cv::Vec3b bgr = normal.at<cv::Vec3b>(t, s);  // image row t: glTF's UV addresses row 0 first
+      auto decode = [](uint8_t code) { return 2.0 * code / 255.0 - 1.0; };
+      const Vec3d in_tangent_space(decode(bgr[2]), decode(bgr[1]), decode(bgr[0]));
+      const Vec3d n =
+          (in_tangent_space.x() * tangent + in_tangent_space.y() * bitangent + in_tangent_space.z() * n_gltf)
+              .normalized();
+      const Vec3d surface(n.x(), -n.z(), n.y());  // glTF (x, y, z) is the surface's (x, z, -y)
+      const Vec3d expected =
+          dynamic_cast<const fitting::GgxModel&>(map.model()).texel_material(map.parameters(s, t)).normal;
+      EXPECT_LT((surface - expected).norm(), 0.01) << s << " " << t << ": " << surface.transpose();
+    }
+  bool skipped = false;
+  const nlohmann::json report = validate(written->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, normals
+}
+
 TEST(GltfExport, ViewOnlyModelsAreRefusedWithTheReason) {
   test::TempDir dir("gltf_export_refused");
   for (const char* name : {"phong:1", "hsh:3", "ptm:rgb"}) {

@@ -8,7 +8,10 @@
 //  - <name>_metallicroughness.png: linear 8 bit, roughness in G, metallic 0 in B (R unused, 0);
 //  - <name>_specular.png (only when some texel's F0 is not 0.04 within kF0Tolerance): KHR_materials_specular's
 //    specularColorTexture, sRGB-encoded F0 / max F0, with specularColorFactor max F0 / 0.04, so that glTF's dielectric
-//    F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1: F90 = 1 as in Schlick's form).
+//    F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1: F90 = 1 as in Schlick's form);
+//  - <name>_normal.png (ggx:iso+n only): normalTexture, linear 8 bit, the shading normal in tangent space as glTF
+//    encodes it (0.5 + 0.5 n): red along the surface's +x, green along its -y (glTF's green points up the image,
+//    toward smaller v), blue the geometric normal; the quad then carries an explicit TANGENT (+x, w = -1).
 // Geometry: glTF is Y-up; the surface frame (x right, y, z the normal) maps to glTF (x, z, -y), the quad centred at
 // the origin, normal +Y. UV (0, 0) is the image's first row and column (glTF's convention), which is the parameter
 // map's texel (0, 0) at the surface's smallest x and y, so u = (x + W/2) / W, v = (y + H/2) / H.
