@@ -5,8 +5,11 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <utility>
+#include <vector>
 
 #include "vdrig/core/file_write.hpp"
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
 
@@ -37,7 +40,8 @@ void append_floats(std::string& bytes, std::initializer_list<float> values) {
 
 }  // namespace
 
-Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name) {
+Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name,
+                               GltfContainer container) {
   const auto* ggx = dynamic_cast<const fitting::GgxModel*>(&map.model());
   if (!ggx)
     return make_error(ErrorCode::kInvalidArgument,
@@ -163,18 +167,53 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   gltf["textures"] = textures;
   gltf["materials"] = Json::array({material});
 
+  // The textures in images' order.
+  std::vector<std::pair<std::string, const cv::Mat*>> pngs = {{base_name, &base}, {mr_name, &mr}};
+  if (result.specular_extension) pngs.emplace_back(spec_name, &spec);
+  if (normals) pngs.emplace_back(normal_name, &normal);
+
+  if (container == GltfContainer::kBinary) {
+    // GLB (glTF 2.0, "Binary glTF Layout"): a 12-byte header, the JSON chunk (padded with spaces) and one BIN chunk
+    // (padded with zeros) holding the quad and the PNGs, each image in a bufferView of its own at a 4-byte boundary.
+    for (size_t k = 0; k < pngs.size(); ++k) {
+      auto bytes = encode_png(*pngs[k].second);
+      if (!bytes) return bytes.error();
+      bin.append((4 - bin.size() % 4) % 4, '\0');
+      gltf["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes->size()}});
+      gltf["images"][k] = {{"bufferView", gltf["bufferViews"].size() - 1}, {"mimeType", "image/png"}};
+      bin += *bytes;
+    }
+    bin.append((4 - bin.size() % 4) % 4, '\0');
+    gltf["buffers"] = Json::array({{{"byteLength", bin.size()}}});
+    std::string json = gltf.dump();
+    json.append((4 - json.size() % 4) % 4, ' ');
+    std::string glb;
+    auto put_u32 = [&glb](uint32_t v) {
+      char b[4];
+      std::memcpy(b, &v, 4);  // little-endian, as every platform vdrig builds on
+      glb.append(b, 4);
+    };
+    put_u32(0x46546C67u);  // "glTF"
+    put_u32(2);
+    put_u32(static_cast<uint32_t>(12 + 8 + json.size() + 8 + bin.size()));
+    put_u32(static_cast<uint32_t>(json.size()));
+    put_u32(0x4E4F534Au);  // "JSON"
+    glb += json;
+    put_u32(static_cast<uint32_t>(bin.size()));
+    put_u32(0x004E4942u);  // "BIN"
+    glb += bin;
+    result.gltf = dir / (name + ".glb");
+    VDRIG_TRY(write_file_atomic(result.gltf, glb));
+    result.written = {result.gltf};
+    return result;
+  }
+
   result.gltf = dir / (name + ".gltf");
   VDRIG_TRY(write_file_atomic(dir / bin_name, bin));
-  VDRIG_TRY(write_png(dir / base_name, base));
-  VDRIG_TRY(write_png(dir / mr_name, mr));
-  result.written = {dir / bin_name, dir / base_name, dir / mr_name};
-  if (result.specular_extension) {
-    VDRIG_TRY(write_png(dir / spec_name, spec));
-    result.written.push_back(dir / spec_name);
-  }
-  if (normals) {
-    VDRIG_TRY(write_png(dir / normal_name, normal));
-    result.written.push_back(dir / normal_name);
+  result.written = {dir / bin_name};
+  for (const auto& [file, image] : pngs) {
+    VDRIG_TRY(write_png(dir / file, *image));
+    result.written.push_back(dir / file);
   }
   VDRIG_TRY(write_file_atomic(result.gltf, gltf.dump(1) + "\n"));
   result.written.push_back(result.gltf);

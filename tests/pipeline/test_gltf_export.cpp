@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "../fitting/rig_observations.hpp"
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
@@ -205,6 +206,56 @@ TEST(GltfExport, ShadingNormalsAsATangentSpaceNormalTexture) {
   EXPECT_EQ(report["errors"], 0) << report.dump(1);
   EXPECT_EQ(report["warnings"], 0) << report.dump(1);
   EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, normals
+}
+
+TEST(GltfExport, OneSelfContainedGlb) {
+  // `--format glb`: the same material in one binary glTF file (header, JSON chunk, BIN chunk with the quad and the
+  // PNGs), whose textures decode to the separate export's.
+  test::TempDir dir("gltf_export_glb");
+  const auto map = ggx_map(Vec3d::Constant(0.04), Vec3d(0.9, 0.7, 0.4));
+  auto separate = export_gltf(map, dir / "gltf", "sample");
+  auto glb = export_gltf(map, dir / "glb", "sample", GltfContainer::kBinary);
+  ASSERT_TRUE(separate && glb) << (separate ? glb.error().describe() : separate.error().describe());
+  EXPECT_EQ(glb->gltf, dir / "glb" / "sample.glb");
+  EXPECT_EQ(glb->written.size(), 1u);
+  const std::string bytes = read_bytes(glb->gltf);
+  auto u32 = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  ASSERT_GE(bytes.size(), 28u);
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(u32(4), 2u);
+  EXPECT_EQ(u32(8), bytes.size());
+  const uint32_t json_length = u32(12);
+  EXPECT_EQ(bytes.substr(16, 4), "JSON");
+  EXPECT_EQ(json_length % 4, 0u);
+  const nlohmann::json gltf = nlohmann::json::parse(bytes.substr(20, json_length));
+  const size_t bin_at = 20 + json_length;
+  EXPECT_EQ(bytes.substr(bin_at + 4, 3), "BIN");
+  EXPECT_EQ(u32(bin_at), bytes.size() - bin_at - 8);
+  EXPECT_EQ(gltf["buffers"][0]["byteLength"].get<size_t>(), u32(bin_at));
+  EXPECT_FALSE(gltf["buffers"][0].contains("uri"));
+  const nlohmann::json separate_gltf = read_json(separate->gltf);
+  ASSERT_EQ(gltf["images"].size(), separate_gltf["images"].size());
+  for (size_t k = 0; k < gltf["images"].size(); ++k) {
+    const auto& image = gltf["images"][k];
+    EXPECT_EQ(image["mimeType"], "image/png");
+    const auto& view = gltf["bufferViews"][image["bufferView"].get<size_t>()];
+    const size_t offset = view["byteOffset"].get<size_t>(), length = view["byteLength"].get<size_t>();
+    EXPECT_EQ(offset % 4, 0u);
+    auto decoded = decode_image(std::string_view(bytes).substr(bin_at + 8 + offset, length), "glb image");
+    ASSERT_TRUE(decoded) << decoded.error().describe();
+    const cv::Mat expected = read_png(dir / "gltf" / separate_gltf["images"][k]["uri"].get<std::string>()).value();
+    EXPECT_EQ(cv::norm(*decoded, expected, cv::NORM_INF), 0.0) << k;
+  }
+  bool skipped = false;
+  const nlohmann::json report = validate(glb->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // the buffer and the three images
 }
 
 TEST(GltfExport, ViewOnlyModelsAreRefusedWithTheReason) {
