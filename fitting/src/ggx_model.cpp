@@ -68,6 +68,24 @@ bool shading_normal(double x, double y, Vec3d* n) {
   return true;
 }
 
+/// ggx:aniso's pi D G2 / (4 lz vz) (sim/ggx.hpp's anisotropic D and Lambda) with alpha_t = rt^2 along the tangent at
+/// angle phi from the surface's x axis and alpha_b = rb^2 along the bitangent; flat normal, lz, vz > 0.
+double specular_factor_aniso(const Vec3d& l, const Vec3d& v, const Vec3d& h, double rt, double rb, double phi) {
+  const double c = std::cos(phi), sn = std::sin(phi);
+  const double at = rt * rt, ab = rb * rb;
+  auto tangent = [c, sn](const Vec3d& w) { return c * w.x() + sn * w.y(); };
+  auto bitangent = [c, sn](const Vec3d& w) { return -sn * w.x() + c * w.y(); };
+  const double hx = tangent(h) / at, hy = bitangent(h) / ab;
+  const double q = hx * hx + hy * hy + h.z() * h.z();
+  const double pi_d = 1.0 / (at * ab * q * q);
+  auto one_plus_two_lambda = [&](const Vec3d& w) {
+    const double x = at * tangent(w), y = ab * bitangent(w);
+    return std::sqrt(1.0 + (x * x + y * y) / (w.z() * w.z()));
+  };
+  const double g_den = 0.5 * (one_plus_two_lambda(l) + one_plus_two_lambda(v));  // 1 + Lambda(l) + Lambda(v)
+  return pi_d / g_den / (4.0 * l.z() * v.z());
+}
+
 /// The smallest roughness the views identify (docs/models.md, "BRDF models"): the highlight may not be narrower than
 /// the sampling sees, or a fit puts an unobserved spike at the mirror direction (a Lambertian texel seen from 17 views
 /// got one thousands of times brighter than the truth between them). As Phong's support rule (b): the observation
@@ -327,6 +345,89 @@ std::array<double, GgxModel::kMaterialParameters + 2> fit_texel_with_normal(cons
   return best;
 }
 
+/// The least-squares cost of ggx:aniso's nine parameters (albedo, f0, roughness along the tangent, along the
+/// bitangent, the tangent's angle): residual E (albedo + s (f0 (1 - S) + S)) - L, s = specular_factor_aniso; the
+/// derivatives in the two roughnesses and the angle are central differences.
+struct GgxAnisoTexelCost {
+  static constexpr int kParams = GgxModel::kMaterialParameters + 2;
+  using Vec = Eigen::Matrix<double, kParams, 1>;
+  using Mat = Eigen::Matrix<double, kParams, kParams>;
+  const GgxTexelData* data = nullptr;
+
+  double evaluate(const Vec& p, Mat* jtj, Vec* jtr) const {
+    const GgxTexelData& d = *data;
+    if (!(p[6] > 0.0) || !(p[7] > 0.0)) return std::numeric_limits<double>::infinity();
+    double cost = 0;
+    if (jtj) {
+      jtj->setZero();
+      jtr->setZero();
+    }
+    constexpr double kStep = 1e-6;
+    for (size_t i = 0; i < d.view.size(); ++i) {
+      auto factor = [&](double rt, double rb, double phi) {
+        return specular_factor_aniso(d.light, d.view[i], d.half[i], rt, rb, phi);
+      };
+      const double s = factor(p[6], p[7], p[8]);
+      double ds[3] = {0, 0, 0};
+      if (jtj) {
+        ds[0] = (factor(p[6] + kStep, p[7], p[8]) - factor(p[6] - kStep, p[7], p[8])) / (2 * kStep);
+        ds[1] = (factor(p[6], p[7] + kStep, p[8]) - factor(p[6], p[7] - kStep, p[8])) / (2 * kStep);
+        ds[2] = (factor(p[6], p[7], p[8] + kStep) - factor(p[6], p[7], p[8] - kStep)) / (2 * kStep);
+      }
+      const double sch = d.schlick[i];
+      for (int c = 0; c < 3; ++c) {
+        const double e = d.irradiance[c];
+        const double fresnel = p[3 + c] * (1.0 - sch) + sch;
+        const double r = e * (p[c] + s * fresnel) - d.radiance[i][c];
+        cost += 0.5 * r * r;
+        if (jtj) {
+          const int idx[5] = {c, 3 + c, 6, 7, 8};
+          const double jac[5] = {e, e * s * (1.0 - sch), e * fresnel * ds[0], e * fresnel * ds[1], e * fresnel * ds[2]};
+          for (int a = 0; a < 5; ++a) {
+            (*jtr)[idx[a]] += jac[a] * r;
+            for (int b = 0; b < 5; ++b) (*jtj)(idx[a], idx[b]) += jac[a] * jac[b];
+          }
+        }
+      }
+    }
+    return cost;
+  }
+};
+
+/// ggx:aniso's texel: ggx:iso's fit gives the roughness r; from four tangent angles (0, 45, 90, 135 deg) with the
+/// roughnesses split around r, the bounded LM on all nine; the lowest cost wins, the isotropic fit itself included
+/// (so no texel fits worse than ggx:iso). Then the canonical form: roughness >= roughness.b (swapped with the angle
+/// turned by 90 deg, the same BRDF) and the angle in [0, pi).
+std::array<double, GgxModel::kMaterialParameters + 2> fit_texel_aniso(const GgxTexelData& d, int max_iterations) {
+  std::array<double, GgxModel::kMaterialParameters + 2> best{};
+  if (d.irradiance.maxCoeff() <= 0.0 || d.view.empty()) return best;
+  const auto iso = fit_texel(d, max_iterations);
+  const double r_min = ggx_supported_roughness(d.half);
+  GgxAnisoTexelCost cost{&d};
+  GgxAnisoTexelCost::Vec p;
+  for (int k = 0; k < GgxModel::kMaterialParameters; ++k) p[k] = iso[static_cast<size_t>(k)];
+  p[7] = p[6], p[8] = 0.0;
+  GgxAnisoTexelCost::Vec best_p = p;
+  double best_cost = cost.evaluate(p, nullptr, nullptr);
+  const double inf = std::numeric_limits<double>::infinity();
+  GgxAnisoTexelCost::Vec lo, hi;
+  lo << 0, 0, 0, 0, 0, 0, r_min, r_min, -inf;
+  hi << inf, inf, inf, 1, 1, 1, 1, 1, inf;
+  for (int k = 0; k < 4; ++k) {
+    GgxAnisoTexelCost::Vec q = best_p;
+    for (int j = 0; j < GgxModel::kMaterialParameters; ++j) q[j] = iso[static_cast<size_t>(j)];
+    q[6] = std::min(1.0, iso[6] * 1.2), q[7] = std::max(r_min, iso[6] / 1.2), q[8] = k * kPi / 4.0;
+    double final_cost = inf;
+    minimise_bounded(cost, q, lo, hi, Eigen::Matrix<bool, 9, 1>::Constant(false), max_iterations, &final_cost);
+    if (q.allFinite() && final_cost < best_cost) best_cost = final_cost, best_p = q;
+  }
+  if (best_p[6] < best_p[7]) std::swap(best_p[6], best_p[7]), best_p[8] += kPi / 2.0;
+  best_p[8] = std::fmod(best_p[8], kPi);
+  if (best_p[8] < 0.0) best_p[8] += kPi;
+  std::copy(best_p.data(), best_p.data() + best_p.size(), best.begin());
+  return best;
+}
+
 std::string glsl_float(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.9e", v);
@@ -362,6 +463,7 @@ std::string GgxFitOptions::fingerprint() const {
 std::vector<std::string> GgxModel::channels() const {
   std::vector<std::string> c = {"albedo.R", "albedo.G", "albedo.B", "f0.R", "f0.G", "f0.B", "roughness"};
   if (shading_normal_) c.insert(c.end(), {"normal.x", "normal.y"});
+  if (aniso_) c.insert(c.end(), {"roughness.b", "aniso.angle"});
   c.insert(c.end(), {"light.x", "light.y", "light.z", "E.R", "E.G", "E.B"});
   return c;
 }
@@ -375,6 +477,7 @@ GgxMaterial GgxModel::texel_material(std::span<const double> p) const {
   GgxMaterial m = material(p);
   if (shading_normal_ && !shading_normal(p[kNormal], p[kNormal + 1], &m.normal))
     m.normal = Vec3d(p[kNormal], p[kNormal + 1], 0.0).normalized();  // past the tilt bound: at the horizon
+  if (aniso_) m.roughness_b = p[kMaterialParameters], m.angle = p[kMaterialParameters + 1];
   return m;
 }
 
@@ -383,6 +486,11 @@ Vec3d GgxModel::brdf(const GgxMaterial& m, const Vec3d& l, const Vec3d& v) {
   if (ln <= 0.0 || vn <= 0.0) return Vec3d::Zero();
   const Vec3d h = (l + v).normalized();
   const double r = std::max(m.roughness, kMinRoughness);
+  if (m.roughness_b > 0.0) {  // anisotropic (ggx:aniso: flat normal)
+    const double s = specular_factor_aniso(l, v, h, r, std::max(m.roughness_b, kMinRoughness), m.angle);
+    const double sch = std::pow(1.0 - std::clamp(v.dot(h), 0.0, 1.0), 5.0);
+    return (m.albedo + (m.f0 + (Vec3d::Ones() - m.f0) * sch) * s) / kPi;
+  }
   // The flat texel keeps the component form (ggx:iso's figures); a tilted one needs the cosines.
   const double s = m.normal == Vec3d::UnitZ()
                        ? specular_factor(l, v, h, r, nullptr)
@@ -422,6 +530,11 @@ std::string GgxModel::check_parameters(std::span<const double> p) const {
       return fmt::format("irradiance is negative ({})", p[static_cast<size_t>(irradiance_at + i)]);
   }
   if (p[6] < 0 || p[6] > 1) return fmt::format("roughness is outside [0, 1] ({})", p[6]);
+  if (aniso_) {
+    const double rb = p[kMaterialParameters], angle = p[kMaterialParameters + 1];
+    if (rb < 0 || rb > p[6] + 1e-9) return fmt::format("roughness.b is outside [0, roughness] ({})", rb);
+    if (angle < 0 || angle > kPi) return fmt::format("aniso.angle is outside [0, pi] ({})", angle);
+  }
   const double norm = Vec3d(p[light_at], p[light_at + 1], p[light_at + 2]).norm();
   if (norm != 0.0 && std::abs(norm - 1.0) > 1e-3) return fmt::format("light direction is not unit ({})", norm);
   return {};
@@ -444,7 +557,10 @@ std::vector<LobeSummary> GgxModel::lobes(std::span<const double> p) const {
   lobe.direction = 2.0 * l.dot(n) * n - l;  // the mirror direction about the shading normal: the peak of D (h = n)
   lobe.peak_rgb = evaluate(p, lobe.direction) - diffuse_part(p);
   // The Phong exponent of the same width near the peak (Walter et al. 2007): m = 2 / alpha^2 - 2.
-  const double alpha = std::max(p[6], kMinRoughness) * std::max(p[6], kMinRoughness);
+  double alpha = std::max(p[6], kMinRoughness) * std::max(p[6], kMinRoughness);
+  if (aniso_)
+    alpha = std::sqrt(alpha * std::max(p[kMaterialParameters], kMinRoughness) *
+                      std::max(p[kMaterialParameters], kMinRoughness));  // the two widths' geometric mean
   lobe.phong_exponent = std::max(0.0, 2.0 / (alpha * alpha) - 2.0);
   return {lobe};
 }
@@ -452,6 +568,22 @@ std::vector<LobeSummary> GgxModel::lobes(std::span<const double> p) const {
 std::vector<double> GgxModel::sample_parameters(unsigned seed) const {
   const double phase = 0.9 * static_cast<double>(seed);
   const Vec3d l = Vec3d(0.3 * std::cos(phase), 0.3 * std::sin(phase), 0.9).normalized();
+  if (aniso_)
+    return {0.5 + 0.1 * std::sin(phase),
+            0.4,
+            0.3,
+            0.04,
+            0.05,
+            0.06,
+            0.6 + 0.1 * std::cos(1.3 * phase),
+            0.3 + 0.1 * std::sin(0.7 * phase),
+            1.5 + 1.2 * std::sin(1.9 * phase),
+            l.x(),
+            l.y(),
+            l.z(),
+            1.5,
+            1.4,
+            1.3};
   if (shading_normal_)
     return {0.5 + 0.1 * std::sin(phase),
             0.4,
@@ -490,6 +622,23 @@ std::string GgxModel::glsl(const std::function<std::string(int parameter)>& para
   std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
   s += "  vec3 albedo = " + vec3_of(0) + ";\n  vec3 f0 = " + vec3_of(3) + ";\n";
   s += "  vec3 l = " + vec3_of(light_channel()) + ";\n  vec3 E = " + vec3_of(light_channel() + 3) + ";\n";
+  if (aniso_) {
+    // As evaluate(): sim/ggx.hpp's anisotropic D and Lambda in the frame of the tangent at aniso.angle.
+    s += "  if (l.z <= 0.0 || v.z <= 0.0) return E * albedo;\n";
+    s += "  float at = max(" + parameter(6) + ", " + glsl_float(kMinRoughness) + ");\n  at *= at;\n";
+    s += "  float ab = max(" + parameter(kMaterialParameters) + ", " + glsl_float(kMinRoughness) + ");\n  ab *= ab;\n";
+    s += "  float phi = " + parameter(kMaterialParameters + 1) + ";\n";
+    s += "  mat2 rot = mat2(cos(phi), -sin(phi), sin(phi), cos(phi));\n";  // columns: (c, -s), (s, c)
+    s += "  vec3 h = normalize(l + v);\n";
+    s += "  vec2 hl = rot * h.xy, ll = rot * l.xy, vl = rot * v.xy;\n";
+    s += "  float q = (hl.x / at) * (hl.x / at) + (hl.y / ab) * (hl.y / ab) + h.z * h.z;\n";
+    s += "  float gl = sqrt(1.0 + ((at * ll.x) * (at * ll.x) + (ab * ll.y) * (ab * ll.y)) / (l.z * l.z));\n";
+    s += "  float gv = sqrt(1.0 + ((at * vl.x) * (at * vl.x) + (ab * vl.y) * (ab * vl.y)) / (v.z * v.z));\n";
+    s += "  float spec = 1.0 / (at * ab * q * q) / (0.5 * (gl + gv)) / (4.0 * l.z * v.z);\n";
+    s += "  float sch = pow(1.0 - clamp(dot(v, h), 0.0, 1.0), 5.0);\n";
+    s += "  return E * (albedo + (f0 + (1.0 - f0) * sch) * spec);\n}\n";
+    return s;
+  }
   if (shading_normal_) {
     // As evaluate(): the formula in the shading normal's frame, from cosines; the flat texel's E scaled to the tilt.
     s += "  float nx = " + parameter(kNormal) + ", ny = " + parameter(kNormal + 1) + ";\n";
@@ -575,6 +724,9 @@ Result<ParameterMap> GgxModel::fit_map(const MapFitContext& context) const {
         if (shading_normal_) {
           const auto material = fit_texel_with_normal(d, o.max_iterations);
           std::copy(material.begin(), material.end(), p.begin());
+        } else if (aniso_) {
+          const auto material = fit_texel_aniso(d, o.max_iterations);
+          std::copy(material.begin(), material.end(), p.begin());
         } else {
           const auto material = fit_texel(d, o.max_iterations);
           std::copy(material.begin(), material.end(), p.begin());
@@ -603,14 +755,16 @@ Result<std::unique_ptr<ModelTiledFit>> GgxModel::tiled_fit(const MapFitOptions&,
 
 void register_ggx_model(ModelRegistry& registry) {
   registry.add({"ggx",
-                "ggx:iso|ggx:iso+n",
+                "ggx:iso|ggx:iso+n|ggx:aniso",
                 [](const std::string& settings) -> Result<ModelPtr> {
                   if (settings == "iso") return ModelPtr(std::make_shared<GgxModel>());
-                  if (settings == "iso+n") return ModelPtr(std::make_shared<GgxModel>(true));
+                  if (settings == "iso+n") return ModelPtr(std::make_shared<GgxModel>(GgxModel::Form::kIsoNormal));
+                  if (settings == "aniso") return ModelPtr(std::make_shared<GgxModel>(GgxModel::Form::kAniso));
                   return make_error(ErrorCode::kInvalidArgument,
-                                    "the form must be iso (ggx:iso) or iso+n (ggx:iso+n, with a shading normal)");
+                                    "the form must be iso (ggx:iso), iso+n (ggx:iso+n, with a shading normal) or "
+                                    "aniso (ggx:aniso, two roughnesses and an angle)");
                 },
-                {"ggx:iso", "ggx:iso+n"}});
+                {"ggx:iso", "ggx:iso+n", "ggx:aniso"}});
 }
 
 }  // namespace vdrig::fitting

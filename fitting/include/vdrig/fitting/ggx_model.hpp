@@ -1,4 +1,5 @@
-// The GGX microfacet BRDF models ("ggx:iso", and "ggx:iso+n" with a per-texel shading normal): per texel a Lambertian
+// The GGX microfacet BRDF models ("ggx:iso", "ggx:iso+n" with a per-texel shading normal, "ggx:aniso" with two
+// roughnesses and the direction of the rougher one): per texel a Lambertian
 // albedo, a Fresnel reflectance at normal incidence and a roughness, fitted under the session's light. Unlike the
 // view-only models (Phong lobes, SH, HSH, PTM: the radiance toward v under the session's fixed lighting), its
 // parameters are a material: GgxModel::brdf gives its reflectance for any light and view, which is what an exported
@@ -20,10 +21,13 @@
 // albedo = kd, the same f0 and roughness = sqrt(alpha).
 //
 // Channels: albedo.R/G/B, f0.R/G/B, roughness (the material), for ggx:iso+n normal.x/y (the shading normal's tilt:
-// its x and y components in the surface frame, z = sqrt(1 - x^2 - y^2)), then light.x/y/z (the unit direction toward
-// the session's light at the texel, surface frame) and E.R/G/B (its irradiance there, as above): the fit stores the
-// light per texel so that evaluate() (the radiance under the session's light, as for every model) and the viewer
-// render the map as the session saw it. A texel fitted from too few observations is all zeros (black).
+// its x and y components in the surface frame, z = sqrt(1 - x^2 - y^2)), for ggx:aniso roughness.b and aniso.angle
+// (roughness is then the one along the tangent t = (cos angle, sin angle, 0), roughness.b <= roughness the one along
+// b = (-sin angle, cos angle, 0), angle in [0, pi) radians from the surface's x axis toward y; D and Lambda are
+// sim/ggx.hpp's anisotropic forms with alpha_t = roughness^2, alpha_b = roughness.b^2), then light.x/y/z (the unit
+// direction toward the session's light at the texel, surface frame) and E.R/G/B (its irradiance there, as above): the
+// fit stores the light per texel so that evaluate() (the radiance under the session's light, as for every model) and
+// the viewer render the map as the session saw it. A texel fitted from too few observations is all zeros (black).
 #pragma once
 
 #include <optional>
@@ -62,6 +66,8 @@ struct GgxMaterial {
   Vec3d f0 = Vec3d::Zero();
   double roughness = 0.0;         // glTF's perceptual roughness; alpha = roughness^2
   Vec3d normal = Vec3d::UnitZ();  // the shading normal (unit, surface frame): +z unless ggx:iso+n
+  double roughness_b = 0.0;       // ggx:aniso: the roughness along the bitangent; 0 = isotropic (= roughness)
+  double angle = 0.0;             // ggx:aniso: the tangent's angle from the surface's x axis toward y, radians
 };
 
 class GgxModel : public ReflectanceModel {
@@ -70,11 +76,14 @@ class GgxModel : public ReflectanceModel {
   static constexpr double kMinRoughness = 0.03;  // the fit's lower bound (alpha 9e-4); evaluation clamps to it too
   static constexpr double kMaxTilt = 0.95;       // ggx:iso+n: normal.x^2 + normal.y^2 at most (tilt <= 77 deg)
 
-  explicit GgxModel(bool shading_normal = false) : shading_normal_(shading_normal) {}
+  enum class Form { kIso, kIsoNormal, kAniso };
+  explicit GgxModel(Form form = Form::kIso) : shading_normal_(form == Form::kIsoNormal), aniso_(form == Form::kAniso) {}
   /// ggx:iso+n: the two normal.x/y channels follow the material's seven.
   bool has_shading_normal() const { return shading_normal_; }
+  /// ggx:aniso: roughness.b and aniso.angle follow the material's seven.
+  bool is_anisotropic() const { return aniso_; }
   std::string family() const override { return "ggx"; }
-  std::string name() const override { return shading_normal_ ? "ggx:iso+n" : "ggx:iso"; }
+  std::string name() const override { return shading_normal_ ? "ggx:iso+n" : aniso_ ? "ggx:aniso" : "ggx:iso"; }
   std::vector<std::string> channels() const override;
   Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
   std::string check_parameters(std::span<const double> parameters) const override;
@@ -100,9 +109,9 @@ class GgxModel : public ReflectanceModel {
   static Vec3d brdf(const GgxMaterial& material, const Vec3d& l, const Vec3d& v);
 
  private:
-  int light_channel() const { return kMaterialParameters + (shading_normal_ ? 2 : 0); }
+  int light_channel() const { return kMaterialParameters + (shading_normal_ || aniso_ ? 2 : 0); }
   int parameter_count() const { return light_channel() + 6; }
-  bool shading_normal_ = false;
+  bool shading_normal_ = false, aniso_ = false;
 };
 
 /// Registers the "ggx" family (ggx:iso, ggx:iso+n).
