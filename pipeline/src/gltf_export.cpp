@@ -62,8 +62,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   GltfExport result;
   // Image row y is texel row t = y (texel (0, 0) at the surface's smallest x and y), which glTF's UV (0, 0), the
   // image's first row, addresses: no flip.
-  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3), normal(T, S, CV_8UC3);
-  const bool normals = ggx->has_shading_normal();
+  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3), normal(T, S, CV_8UC3), anisotropy(T, S, CV_8UC3);
+  const bool normals = ggx->has_shading_normal(), aniso = ggx->is_anisotropic(), tangents = normals || aniso;
   double f0_max = 0.0;
   bool f0_dielectric = true;
   for (int t = 0; t < T; ++t)
@@ -74,7 +74,18 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       if (m.albedo.maxCoeff() > 1.0) ++result.clipped_texels;
       // OpenCV's order is BGR.
       base.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(m.albedo.z()), srgb_code(m.albedo.y()), srgb_code(m.albedo.x()));
-      mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(m.roughness), 0);  // B metallic 0, G roughness, R unused
+      const fitting::GgxMaterial full = ggx->texel_material(map.parameters(s, t));
+      // glTF's roughness is the smoother direction's (KHR_materials_anisotropy: alpha_b = roughness^2).
+      const double roughness = aniso && full.roughness_b > 0.0 ? full.roughness_b : m.roughness;
+      mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(roughness), 0);  // B metallic 0, G roughness, R unused
+      if (aniso) {
+        // KHR_materials_anisotropy: RG the direction in tangent space (as the normal map's: green along the
+        // surface's -y), B the strength with alpha_t = mix(alpha_b, 1, strength^2).
+        const double at = full.roughness * full.roughness, ab = roughness * roughness;
+        const double strength = ab < 1.0 ? std::sqrt(std::clamp((at - ab) / (1.0 - ab), 0.0, 1.0)) : 0.0;
+        anisotropy.at<cv::Vec3b>(t, s) = cv::Vec3b(linear_code(strength), linear_code(0.5 - 0.5 * std::sin(full.angle)),
+                                                   linear_code(0.5 + 0.5 * std::cos(full.angle)));
+      }
       if (normals) {
         // Tangent space (gltf_export.hpp): red along the surface's +x (u), green along its -y (glTF's green points
         // up the image, toward smaller v, i.e. smaller t), blue the geometric normal.
@@ -102,19 +113,20 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   // direction of the normal map's green channel. Explicit, because the quad's UVs are mirrored (v grows with y while
   // glTF's image rows run down): a renderer deriving tangents from UVs must get the same frame, and stating it
   // removes one way of getting it wrong.
-  if (normals) append_floats(bin, {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1});  // 64 bytes, 204 in all
+  if (tangents) append_floats(bin, {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1});  // 64 bytes, 204 in all
 
   const std::string bin_name = name + ".bin", base_name = name + "_basecolor.png",
                     mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png",
-                    normal_name = name + "_normal.png";
+                    normal_name = name + "_normal.png", anisotropy_name = name + "_anisotropy.png";
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "vdrig export"}};
-  if (result.specular_extension) gltf["extensionsUsed"] = {"KHR_materials_specular"};
+  if (result.specular_extension) gltf["extensionsUsed"].push_back("KHR_materials_specular");
+  if (aniso) gltf["extensionsUsed"].push_back("KHR_materials_anisotropy");
   gltf["scene"] = 0;
   gltf["scenes"] = Json::array({{{"nodes", {0}}}});
   gltf["nodes"] = Json::array({{{"mesh", 0}, {"name", name}}});
   Json attributes = {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}};
-  if (normals) attributes["TANGENT"] = 4;
+  if (tangents) attributes["TANGENT"] = 4;
   gltf["meshes"] = Json::array(
       {{{"name", name}, {"primitives", Json::array({{{"attributes", attributes}, {"indices", 3}, {"material", 0}}})}}});
   gltf["buffers"] = Json::array({{{"uri", bin_name}, {"byteLength", bin.size()}}});
@@ -125,7 +137,7 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 32}, {"target", 34962}},   //
       {{"buffer", 0}, {"byteOffset", 128}, {"byteLength", 12}, {"target", 34963}},  // ELEMENT_ARRAY_BUFFER
   });
-  if (normals)
+  if (tangents)
     gltf["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 140}, {"byteLength", 64}, {"target", 34962}});
   gltf["accessors"] = Json::array({
       {{"bufferView", 0},
@@ -138,7 +150,7 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
       {{"bufferView", 3}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
   });
-  if (normals)
+  if (tangents)
     gltf["accessors"].push_back({{"bufferView", 4}, {"componentType", 5126}, {"count", 4}, {"type", "VEC4"}});
   // Texels are samples of the surface: linear filtering, clamped at the sample's edges.
   gltf["samplers"] = Json::array({{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}});
@@ -163,6 +175,13 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
     textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
     material["normalTexture"] = {{"index", textures.size() - 1}};
   }
+  if (aniso) {
+    images.push_back({{"uri", anisotropy_name}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    material["extensions"]["KHR_materials_anisotropy"] = {{"anisotropyStrength", 1.0},
+                                                          {"anisotropyRotation", 0.0},
+                                                          {"anisotropyTexture", {{"index", textures.size() - 1}}}};
+  }
   gltf["images"] = images;
   gltf["textures"] = textures;
   gltf["materials"] = Json::array({material});
@@ -171,6 +190,7 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   std::vector<std::pair<std::string, const cv::Mat*>> pngs = {{base_name, &base}, {mr_name, &mr}};
   if (result.specular_extension) pngs.emplace_back(spec_name, &spec);
   if (normals) pngs.emplace_back(normal_name, &normal);
+  if (aniso) pngs.emplace_back(anisotropy_name, &anisotropy);
 
   if (container == GltfContainer::kBinary) {
     // GLB (glTF 2.0, "Binary glTF Layout"): a 12-byte header, the JSON chunk (padded with spaces) and one BIN chunk

@@ -208,6 +208,51 @@ TEST(GltfExport, ShadingNormalsAsATangentSpaceNormalTexture) {
   EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, normals
 }
 
+TEST(GltfExport, AnisotropyAsKhrMaterialsAnisotropy) {
+  // ggx:aniso's two roughnesses and angle, read back as KHR_materials_anisotropy defines them: roughness^2 = alpha_b,
+  // alpha_t = mix(alpha_b, 1, strength^2), the direction in the tangent space of TANGENT and cross(NORMAL, TANGENT) w.
+  test::TempDir dir("gltf_export_aniso");
+  fitting::ParameterMap map(fitting::parse_model("ggx:aniso").value(), 2, 1, 200.0, 100.0);
+  const double angles[] = {deg_to_rad(30.0), deg_to_rad(120.0)};
+  for (int s = 0; s < 2; ++s)
+    map.set_parameters(s, 0,
+                       std::vector<double>{0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.6, 0.3, angles[s], 0, 0, 1, 1, 1, 1});
+  auto written = export_gltf(map, dir, "brushed");
+  ASSERT_TRUE(written) << written.error().describe();
+  const nlohmann::json gltf = read_json(written->gltf);
+  EXPECT_EQ(gltf["extensionsUsed"][0], "KHR_materials_anisotropy");
+  const nlohmann::json& ext = gltf["materials"][0]["extensions"]["KHR_materials_anisotropy"];
+  EXPECT_EQ(ext["anisotropyStrength"], 1.0);
+  EXPECT_EQ(ext["anisotropyRotation"], 0.0);
+  ASSERT_TRUE(gltf["meshes"][0]["primitives"][0]["attributes"].contains("TANGENT"));
+  const std::string bin = read_bytes(dir / "brushed.bin");
+  const Vec3d n_gltf(float_at(bin, 48), float_at(bin, 52), float_at(bin, 56));
+  const Vec3d tangent(float_at(bin, 140), float_at(bin, 144), float_at(bin, 148));
+  const Vec3d bitangent = n_gltf.cross(tangent) * float_at(bin, 152);
+  auto image_of = [&](int texture) {
+    const int source = gltf["textures"][texture]["source"];
+    return read_png(dir / gltf["images"][source]["uri"].get<std::string>()).value();
+  };
+  const cv::Mat mr = image_of(gltf["materials"][0]["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"]);
+  const cv::Mat an = image_of(ext["anisotropyTexture"]["index"]);
+  for (int s = 0; s < 2; ++s) {
+    const double roughness = mr.at<cv::Vec3b>(0, s)[1] / 255.0, ab = roughness * roughness;
+    EXPECT_NEAR(roughness, 0.3, 0.003);
+    const cv::Vec3b bgr = an.at<cv::Vec3b>(0, s);
+    const double strength = bgr[0] / 255.0, at = ab + (1.0 - ab) * strength * strength;
+    EXPECT_NEAR(at, 0.36, 0.005);
+    const Vec3d dir_gltf = (2.0 * bgr[2] / 255.0 - 1.0) * tangent + (2.0 * bgr[1] / 255.0 - 1.0) * bitangent;
+    const Vec3d surface(dir_gltf.x(), -dir_gltf.z(), dir_gltf.y());
+    EXPECT_LT((surface.normalized() - Vec3d(std::cos(angles[s]), std::sin(angles[s]), 0)).norm(), 0.01) << s;
+  }
+  bool skipped = false;
+  const nlohmann::json report = validate(written->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, anisotropy
+}
+
 TEST(GltfExport, OneSelfContainedGlb) {
   // `--format glb`: the same material in one binary glTF file (header, JSON chunk, BIN chunk with the quad and the
   // PNGs), whose textures decode to the separate export's.

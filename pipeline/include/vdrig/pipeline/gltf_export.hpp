@@ -11,7 +11,10 @@
 //    F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1: F90 = 1 as in Schlick's form);
 //  - <name>_normal.png (ggx:iso+n only): normalTexture, linear 8 bit, the shading normal in tangent space as glTF
 //    encodes it (0.5 + 0.5 n): red along the surface's +x, green along its -y (glTF's green points up the image,
-//    toward smaller v), blue the geometric normal; the quad then carries an explicit TANGENT (+x, w = -1).
+//    toward smaller v), blue the geometric normal; the quad then carries an explicit TANGENT (+x, w = -1);
+//  - <name>_anisotropy.png (ggx:aniso only): KHR_materials_anisotropy's anisotropyTexture, linear 8 bit: RG the
+//    rougher direction in the same tangent space (0.5 + 0.5 (cos angle, -sin angle)), B the strength with
+//    alpha_t = mix(alpha_b, 1, strength^2); the metallic-roughness texture then holds roughness.b (glTF's alpha_b).
 // GltfContainer::kBinary (`--format glb`) writes the same as one DIR/<name>.glb: the JSON chunk, then one BIN chunk
 // holding the quad and the PNGs (images by bufferView and mimeType, no URIs).
 // Geometry: glTF is Y-up; the surface frame (x right, y, z the normal) maps to glTF (x, z, -y), the quad centred at
