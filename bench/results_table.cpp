@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -695,6 +696,13 @@ int main(int argc, char** argv) {
     md += "\n## " + s.title + "\n\n" + s.notes + "\n\n| Setup | Ours | Source |\n|---|---|---|\n";
     const auto cell = pipeline::escape_markdown_table_cell;
     for (const Row& r : s.rows) md += "| " + cell(r.setup) + " | " + cell(r.ours) + " | " + cell(r.source) + " |\n";
+  }
+  // Sections measured elsewhere (by tests that need a browser, say) follow a marker line; regenerating keeps them.
+  const std::string kept_marker = "<!-- kept by bench_results_table: sections not generated here -->";
+  if (argc > 1) {
+    std::ifstream old(argv[1]);
+    const std::string text((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>());
+    if (const size_t at = text.find(kept_marker); at != std::string::npos) md += "\n" + text.substr(at);
   }
   std::fputs(md.c_str(), stdout);
   if (argc > 1) {

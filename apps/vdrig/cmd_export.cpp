@@ -1,5 +1,5 @@
-// `vdrig export MAP --format gltf --out DIR`: a fitted BRDF map as a glTF 2.0 material on a quad of the sample's size
-// (pipeline/gltf_export.hpp); view-only models are refused with the reason.
+// `vdrig export MAP --format gltf|glb --out DIR`: a fitted BRDF map as a glTF 2.0 material on a quad of the sample's
+// size (pipeline/gltf_export.hpp); view-only models are refused with the reason.
 #include <cstdio>
 #include <string>
 
@@ -18,7 +18,9 @@ struct ExportArgs {
 Status run_export(const ExportArgs& a) {
   auto map = fitting::ParameterMap::read(a.map);
   if (!map) return map.error();
-  auto written = pipeline::export_gltf(*map, a.out, a.name);
+  auto written = pipeline::export_gltf(
+      *map, a.out, a.name,
+      a.format == "glb" ? pipeline::GltfContainer::kBinary : pipeline::GltfContainer::kSeparateFiles);
   if (!written) return written.error();
   if (written->clipped_texels > 0)
     log::get("app")->warn(
@@ -33,11 +35,14 @@ Status run_export(const ExportArgs& a) {
 const CommandRegistrar kExport([](CLI::App& root) {
   auto args = std::make_shared<ExportArgs>();
   auto* cmd = root.add_subcommand("export", "Export a fitted BRDF map (ggx) as a glTF 2.0 material with PNG textures");
-  cmd->add_option("map", args->map, "parameter map (EXR, vdrig fit --model ggx:iso)")
+  cmd->add_option("map", args->map, "parameter map (EXR, vdrig fit --model ggx:iso or ggx:iso+n)")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--format", args->format, "output format")->capture_default_str()->check(CLI::IsMember({"gltf"}));
-  cmd->add_option("--out", args->out, "output folder (DIR/NAME.gltf, .bin and PNG textures)")->required();
+  cmd->add_option("--format", args->format,
+                  "output format: gltf (NAME.gltf, .bin and PNG textures) or glb (one NAME.glb)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"gltf", "glb"}));
+  cmd->add_option("--out", args->out, "output folder")->required();
   cmd->add_option("--name", args->name, "file and material name")->capture_default_str();
   cmd->callback([args] { finish(run_export(*args)); });
 });

@@ -5,8 +5,11 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <utility>
+#include <vector>
 
 #include "vdrig/core/file_write.hpp"
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
 
@@ -37,8 +40,10 @@ void append_floats(std::string& bytes, std::initializer_list<float> values) {
 
 }  // namespace
 
-Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name) {
-  if (!dynamic_cast<const fitting::GgxModel*>(&map.model()))
+Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path& dir, const std::string& name,
+                               GltfContainer container) {
+  const auto* ggx = dynamic_cast<const fitting::GgxModel*>(&map.model());
+  if (!ggx)
     return make_error(ErrorCode::kInvalidArgument,
                       "model " + map.model().name() +
                           " is view-only (the radiance toward each view under the session's light, not a "
@@ -57,7 +62,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   GltfExport result;
   // Image row y is texel row t = y (texel (0, 0) at the surface's smallest x and y), which glTF's UV (0, 0), the
   // image's first row, addresses: no flip.
-  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3);
+  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3), normal(T, S, CV_8UC3), anisotropy(T, S, CV_8UC3);
+  const bool normals = ggx->has_shading_normal(), aniso = ggx->is_anisotropic(), tangents = normals || aniso;
   double f0_max = 0.0;
   bool f0_dielectric = true;
   for (int t = 0; t < T; ++t)
@@ -68,7 +74,25 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       if (m.albedo.maxCoeff() > 1.0) ++result.clipped_texels;
       // OpenCV's order is BGR.
       base.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(m.albedo.z()), srgb_code(m.albedo.y()), srgb_code(m.albedo.x()));
-      mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(m.roughness), 0);  // B metallic 0, G roughness, R unused
+      const fitting::GgxMaterial full = ggx->texel_material(map.parameters(s, t));
+      // glTF's roughness is the smoother direction's (KHR_materials_anisotropy: alpha_b = roughness^2).
+      const double roughness = aniso && full.roughness_b > 0.0 ? full.roughness_b : m.roughness;
+      mr.at<cv::Vec3b>(t, s) = cv::Vec3b(0, linear_code(roughness), 0);  // B metallic 0, G roughness, R unused
+      if (aniso) {
+        // KHR_materials_anisotropy: RG the direction in tangent space (as the normal map's: green along the
+        // surface's -y), B the strength with alpha_t = mix(alpha_b, 1, strength^2).
+        const double at = full.roughness * full.roughness, ab = roughness * roughness;
+        const double strength = ab < 1.0 ? std::sqrt(std::clamp((at - ab) / (1.0 - ab), 0.0, 1.0)) : 0.0;
+        anisotropy.at<cv::Vec3b>(t, s) = cv::Vec3b(linear_code(strength), linear_code(0.5 - 0.5 * std::sin(full.angle)),
+                                                   linear_code(0.5 + 0.5 * std::cos(full.angle)));
+      }
+      if (normals) {
+        // Tangent space (gltf_export.hpp): red along the surface's +x (u), green along its -y (glTF's green points
+        // up the image, toward smaller v, i.e. smaller t), blue the geometric normal.
+        const Vec3d n = ggx->texel_material(map.parameters(s, t)).normal;
+        normal.at<cv::Vec3b>(t, s) =
+            cv::Vec3b(linear_code(0.5 + 0.5 * n.z()), linear_code(0.5 - 0.5 * n.y()), linear_code(0.5 + 0.5 * n.x()));
+      }
     }
   result.specular_extension = !f0_dielectric && f0_max > 0.0;
   if (result.specular_extension)
@@ -84,21 +108,27 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   append_floats(bin, {-w / 2, 0, h / 2, w / 2, 0, h / 2, w / 2, 0, -h / 2, -w / 2, 0, -h / 2});  // POSITION
   append_floats(bin, {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0});                                      // NORMAL
   append_floats(bin, {0, 0, 1, 0, 1, 1, 0, 1});                                                  // TEXCOORD_0
-  for (uint16_t i : {0, 1, 2, 0, 2, 3}) bin.append(reinterpret_cast<const char*>(&i), 2);        // 140 bytes in all
+  for (uint16_t i : {0, 1, 2, 0, 2, 3}) bin.append(reinterpret_cast<const char*>(&i), 2);        // 140 bytes
+  // TANGENT (normal maps only): +x, w = -1, so that glTF's bitangent cross(N, T) w = glTF +Z = the surface's -y, the
+  // direction of the normal map's green channel. Explicit, because the quad's UVs are mirrored (v grows with y while
+  // glTF's image rows run down): a renderer deriving tangents from UVs must get the same frame, and stating it
+  // removes one way of getting it wrong.
+  if (tangents) append_floats(bin, {1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1, 1, 0, 0, -1});  // 64 bytes, 204 in all
 
   const std::string bin_name = name + ".bin", base_name = name + "_basecolor.png",
-                    mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png";
+                    mr_name = name + "_metallicroughness.png", spec_name = name + "_specular.png",
+                    normal_name = name + "_normal.png", anisotropy_name = name + "_anisotropy.png";
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "vdrig export"}};
-  if (result.specular_extension) gltf["extensionsUsed"] = {"KHR_materials_specular"};
+  if (result.specular_extension) gltf["extensionsUsed"].push_back("KHR_materials_specular");
+  if (aniso) gltf["extensionsUsed"].push_back("KHR_materials_anisotropy");
   gltf["scene"] = 0;
   gltf["scenes"] = Json::array({{{"nodes", {0}}}});
   gltf["nodes"] = Json::array({{{"mesh", 0}, {"name", name}}});
-  gltf["meshes"] =
-      Json::array({{{"name", name},
-                    {"primitives", Json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}}},
-                                                 {"indices", 3},
-                                                 {"material", 0}}})}}});
+  Json attributes = {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}};
+  if (tangents) attributes["TANGENT"] = 4;
+  gltf["meshes"] = Json::array(
+      {{{"name", name}, {"primitives", Json::array({{{"attributes", attributes}, {"indices", 3}, {"material", 0}}})}}});
   gltf["buffers"] = Json::array({{{"uri", bin_name}, {"byteLength", bin.size()}}});
   // One buffer view per accessor (several accessors in one view would need a byteStride).
   gltf["bufferViews"] = Json::array({
@@ -107,6 +137,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 32}, {"target", 34962}},   //
       {{"buffer", 0}, {"byteOffset", 128}, {"byteLength", 12}, {"target", 34963}},  // ELEMENT_ARRAY_BUFFER
   });
+  if (tangents)
+    gltf["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 140}, {"byteLength", 64}, {"target", 34962}});
   gltf["accessors"] = Json::array({
       {{"bufferView", 0},
        {"componentType", 5126},
@@ -118,6 +150,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
       {{"bufferView", 3}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
   });
+  if (tangents)
+    gltf["accessors"].push_back({{"bufferView", 4}, {"componentType", 5126}, {"count", 4}, {"type", "VEC4"}});
   // Texels are samples of the surface: linear filtering, clamped at the sample's edges.
   gltf["samplers"] = Json::array({{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}});
   Json images = Json::array({{{"uri", base_name}}, {{"uri", mr_name}}});
@@ -136,18 +170,70 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
         {"KHR_materials_specular",
          {{"specularFactor", 1.0}, {"specularColorFactor", {k, k, k}}, {"specularColorTexture", {{"index", 2}}}}}};
   }
+  if (normals) {
+    images.push_back({{"uri", normal_name}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    material["normalTexture"] = {{"index", textures.size() - 1}};
+  }
+  if (aniso) {
+    images.push_back({{"uri", anisotropy_name}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    material["extensions"]["KHR_materials_anisotropy"] = {{"anisotropyStrength", 1.0},
+                                                          {"anisotropyRotation", 0.0},
+                                                          {"anisotropyTexture", {{"index", textures.size() - 1}}}};
+  }
   gltf["images"] = images;
   gltf["textures"] = textures;
   gltf["materials"] = Json::array({material});
 
+  // The textures in images' order.
+  std::vector<std::pair<std::string, const cv::Mat*>> pngs = {{base_name, &base}, {mr_name, &mr}};
+  if (result.specular_extension) pngs.emplace_back(spec_name, &spec);
+  if (normals) pngs.emplace_back(normal_name, &normal);
+  if (aniso) pngs.emplace_back(anisotropy_name, &anisotropy);
+
+  if (container == GltfContainer::kBinary) {
+    // GLB (glTF 2.0, "Binary glTF Layout"): a 12-byte header, the JSON chunk (padded with spaces) and one BIN chunk
+    // (padded with zeros) holding the quad and the PNGs, each image in a bufferView of its own at a 4-byte boundary.
+    for (size_t k = 0; k < pngs.size(); ++k) {
+      auto bytes = encode_png(*pngs[k].second);
+      if (!bytes) return bytes.error();
+      bin.append((4 - bin.size() % 4) % 4, '\0');
+      gltf["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes->size()}});
+      gltf["images"][k] = {{"bufferView", gltf["bufferViews"].size() - 1}, {"mimeType", "image/png"}};
+      bin += *bytes;
+    }
+    bin.append((4 - bin.size() % 4) % 4, '\0');
+    gltf["buffers"] = Json::array({{{"byteLength", bin.size()}}});
+    std::string json = gltf.dump();
+    json.append((4 - json.size() % 4) % 4, ' ');
+    std::string glb;
+    auto put_u32 = [&glb](uint32_t v) {
+      char b[4];
+      std::memcpy(b, &v, 4);  // little-endian, as every platform vdrig builds on
+      glb.append(b, 4);
+    };
+    put_u32(0x46546C67u);  // "glTF"
+    put_u32(2);
+    put_u32(static_cast<uint32_t>(12 + 8 + json.size() + 8 + bin.size()));
+    put_u32(static_cast<uint32_t>(json.size()));
+    put_u32(0x4E4F534Au);  // "JSON"
+    glb += json;
+    put_u32(static_cast<uint32_t>(bin.size()));
+    put_u32(0x004E4942u);  // "BIN"
+    glb += bin;
+    result.gltf = dir / (name + ".glb");
+    VDRIG_TRY(write_file_atomic(result.gltf, glb));
+    result.written = {result.gltf};
+    return result;
+  }
+
   result.gltf = dir / (name + ".gltf");
   VDRIG_TRY(write_file_atomic(dir / bin_name, bin));
-  VDRIG_TRY(write_png(dir / base_name, base));
-  VDRIG_TRY(write_png(dir / mr_name, mr));
-  result.written = {dir / bin_name, dir / base_name, dir / mr_name};
-  if (result.specular_extension) {
-    VDRIG_TRY(write_png(dir / spec_name, spec));
-    result.written.push_back(dir / spec_name);
+  result.written = {dir / bin_name};
+  for (const auto& [file, image] : pngs) {
+    VDRIG_TRY(write_png(dir / file, *image));
+    result.written.push_back(dir / file);
   }
   VDRIG_TRY(write_file_atomic(result.gltf, gltf.dump(1) + "\n"));
   result.written.push_back(result.gltf);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -151,6 +152,187 @@ TEST(GgxModel, RecoversTheSimulatorsMaterialsUnderSensorNoise) {
     EXPECT_LT(alpha, c.alpha_tol);
     EXPECT_LT(ggx_err, c.dense_tol);
     EXPECT_LT(ggx_err, 0.05 * phong_err);
+  }
+}
+
+/// Degrees between two unit vectors.
+double angle_deg(const Vec3d& a, const Vec3d& b) { return rad_to_deg(std::acos(std::clamp(a.dot(b), -1.0, 1.0))); }
+
+TEST(GgxModel, RecoversTiltedShadingNormalsUnderSensorNoise) {
+  // The simulator's bump pattern (sim/scene.hpp: a height field of fixed sinusoids, the truth's shading normal at
+  // every point) on a GGX metal and a GGX plastic, recorded as above; ggx:iso+n recovers each texel's normal, and
+  // its radiance between the views stays near the truth where ggx:iso (flat texels) misses the displaced highlight.
+  // Measured (seed 1; true tilts 5.1-14.9 deg): metal: worst normal error 0.049 deg, f0 0.92 %, alpha 0.66 %, dense
+  // 0.52 % (ggx:iso 60.6 %); plastic: 0.052 deg, 2.0 %, 0.85 %, 0.27 % (ggx:iso 23.3 %).
+  struct NormalCase {
+    const char* name;
+    Vec3d kd, f0;
+    double alpha, normal_tol_deg, f0_tol, alpha_tol, dense_tol;
+  };
+  const NormalCase cases[] = {
+      {"bumped metal alpha 0.20", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.20, 0.08, 0.014, 0.01, 0.008},
+      {"bumped plastic alpha 0.15", Vec3d(0.6, 0.25, 0.1), Vec3d::Constant(0.04), 0.15, 0.08, 0.03, 0.013, 0.004},
+  };
+  const int S = 4;
+  for (const NormalCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    sim::Scene scene = ggx_scene(c.kd, c.f0, c.alpha);
+    scene.materials[0].bump_slope = 0.4;
+    scene.materials[0].bump_period_mm = 90.0;
+    const ObservationMap obs = recorded_map(scene, S, 1);
+    MapFitOptions options;
+    options.model = parse_model("ggx:iso+n").value();
+    options.threads = 1;
+    options.model_options.edit<GgxFitOptions>().light = light_of(scene);
+    const auto start = std::chrono::steady_clock::now();
+    auto map = fit_parameter_map(obs, options);
+    const double fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(map) << map.error().describe();
+    std::printf("%s: ggx:iso+n fit %.2f ms per texel (one thread)\n", c.name, fit_ms / (S * S));
+    MapFitOptions flat = options;
+    flat.model = parse_model("ggx:iso").value();
+    auto flat_map = fit_parameter_map(obs, flat);
+    ASSERT_TRUE(flat_map) << flat_map.error().describe();
+    const auto& model = dynamic_cast<const GgxModel&>(map->model());
+    double normal_err = 0, true_tilt_min = 90, true_tilt_max = 0, f0 = 0, alpha = 0, err = 0, flat_err = 0;
+    for (int t = 0; t < S; ++t)
+      for (int s = 0; s < S; ++s) {
+        const Vec3d p = texel_centre_mm(s, t, S, S, scene.width_mm, scene.height_mm);
+        const Vec3d truth = scene.surface_at(p.x(), p.y()).normal;
+        const GgxMaterial m = model.texel_material(map->parameters(s, t));
+        normal_err = std::max(normal_err, angle_deg(m.normal, truth));
+        true_tilt_min = std::min(true_tilt_min, angle_deg(truth, Vec3d::UnitZ()));
+        true_tilt_max = std::max(true_tilt_max, angle_deg(truth, Vec3d::UnitZ()));
+        for (int ch = 0; ch < 3; ++ch) f0 = std::max(f0, std::abs(m.f0[ch] - c.f0[ch]) / c.f0[ch]);
+        alpha = std::max(alpha, std::abs(m.roughness * m.roughness - c.alpha) / c.alpha);
+        err += dense_relative_rms(*map, s, t, scene) / (S * S);
+        flat_err += dense_relative_rms(*flat_map, s, t, scene) / (S * S);
+      }
+    std::printf(
+        "%s: true tilt %.1f-%.1f deg; worst normal error %.3f deg, f0 %.4f, alpha %.4f; dense mean relative RMS "
+        "ggx:iso+n %.2f %%, ggx:iso %.2f %%\n",
+        c.name, true_tilt_min, true_tilt_max, normal_err, f0, alpha, 100 * err, 100 * flat_err);
+    EXPECT_GT(true_tilt_max, 12.0);  // the scene tilts its texels by far more than the bound below
+    EXPECT_LT(normal_err, c.normal_tol_deg);
+    EXPECT_LT(f0, c.f0_tol);
+    EXPECT_LT(alpha, c.alpha_tol);
+    EXPECT_LT(err, c.dense_tol);
+    EXPECT_LT(err, 0.1 * flat_err);
+  }
+}
+
+TEST(GgxModel, ShadingNormalModelOnAFlatSurfaceIsFlat) {
+  // ggx:iso+n on an untilted surface: normals within a fraction of a degree of +z, radiance as ggx:iso's. Measured
+  // (seed 4): worst tilt 0.043 deg; dense mean relative RMS 0.55 % (ggx:iso 0.13 %), most of it from one texel and
+  // one direction 0.03 deg above the horizon, which its tilt puts below the shading horizon (no highlight there; the
+  // truth's grazing forward highlight is as bright as the diffuse radiance).
+  const sim::Scene scene = ggx_scene(Vec3d(0.3, 0.3, 0.2), Vec3d::Constant(0.04), 0.2);
+  const int S = 3;
+  const ObservationMap obs = recorded_map(scene, S, 4);
+  MapFitOptions options;
+  options.model = parse_model("ggx:iso+n").value();
+  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
+  auto map = fit_parameter_map(obs, options);
+  ASSERT_TRUE(map) << map.error().describe();
+  MapFitOptions flat = options;
+  flat.model = parse_model("ggx:iso").value();
+  auto flat_map = fit_parameter_map(obs, flat);
+  ASSERT_TRUE(flat_map) << flat_map.error().describe();
+  const auto& model = dynamic_cast<const GgxModel&>(map->model());
+  double worst = 0, dense = 0, flat_dense = 0;  // dense: means over the texels
+  for (int t = 0; t < S; ++t)
+    for (int s = 0; s < S; ++s) {
+      worst = std::max(worst, angle_deg(model.texel_material(map->parameters(s, t)).normal, Vec3d::UnitZ()));
+      dense += dense_relative_rms(*map, s, t, scene) / (S * S);
+      flat_dense += dense_relative_rms(*flat_map, s, t, scene) / (S * S);
+      EXPECT_EQ(model.check_parameters(map->parameters(s, t)), "");
+    }
+  std::printf("flat plastic: ggx:iso+n worst normal tilt %.3f deg, dense mean relative RMS %.2f %% (ggx:iso %.2f %%)\n",
+              worst, 100 * dense, 100 * flat_dense);
+  EXPECT_LT(worst, 0.3);
+  EXPECT_LT(dense, 0.008);
+  EXPECT_EQ(map->image().string_attributes.at("vdrig.session_light"), light_of(scene).describe());
+}
+
+TEST(GgxModel, AnisotropicIsTheSimulatorsBrdf) {
+  // ggx:aniso's BRDF at angle 0 is the simulator's with alpha_x = roughness^2, alpha_y = roughness.b^2; at angle 90
+  // deg the two swap.
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto hemisphere = [&] { return direction_from_spherical(2 * kPi * u(rng), deg_to_rad(88.0) * std::sqrt(u(rng))); };
+  double worst = 0;
+  for (int k = 0; k < 2000; ++k) {
+    GgxMaterial m{Vec3d(u(rng), u(rng), u(rng)), Vec3d(u(rng), u(rng), u(rng)), 0.3 + 0.7 * u(rng)};
+    m.roughness_b = 0.05 + 0.25 * u(rng);
+    const bool turned = k % 2 == 1;
+    m.angle = turned ? kPi / 2 : 0.0;
+    const Vec3d l = hemisphere(), v = hemisphere();
+    const double at = m.roughness * m.roughness, ab = m.roughness_b * m.roughness_b;
+    const Vec3d expected = m.albedo / kPi + sim::ggx_brdf(l, v, turned ? ab : at, turned ? at : ab, m.f0);
+    worst = std::max(worst, ((GgxModel::brdf(m, l, v) - expected).array().abs() / expected.array()).maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(GgxModel, RecoversAnisotropicRoughnessUnderSensorNoise) {
+  // The simulator's anisotropic GGX (roughness along the surface's x and y axes) recorded as above; ggx:aniso gives
+  // the rougher direction as its tangent (roughness >= roughness.b). Measured (seed 1): metal: worst alpha 0.86 %,
+  // angle 0.136 deg, f0 0.85 %, dense 0.42 % (ggx:iso 45.9 %); plastic: 1.06 %, 0.139 deg, 1.56 %, 0.17 % (ggx:iso
+  // 16.5 %); ~10 ms per texel. At alpha 0.08 x 0.25 two of the metal's texels keep alpha_b at the sampling's bound
+  // (~0.09-0.10 there, as ggx:iso's roughness), which is why the table's metal is 0.12 x 0.30.
+  struct AnisoCase {
+    const char* name;
+    Vec3d kd, f0;
+    double alpha_x, alpha_y, expected_angle, alpha_tol, angle_tol_deg, f0_tol, dense_tol;
+  };
+  const AnisoCase cases[] = {
+      {"metal alpha 0.12 x 0.30", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.12, 0.30, kPi / 2, 0.013, 0.2, 0.013,
+       0.0063},
+      {"plastic alpha 0.30 x 0.12", Vec3d(0.6, 0.25, 0.1), Vec3d::Constant(0.04), 0.30, 0.12, 0.0, 0.016, 0.21, 0.024,
+       0.0026},
+  };
+  const int S = 4;
+  for (const AnisoCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    sim::Scene scene = ggx_scene(c.kd, c.f0, c.alpha_x);
+    scene.materials[0].roughness_y = c.alpha_y;
+    const ObservationMap obs = recorded_map(scene, S, 1);
+    MapFitOptions options;
+    options.model = parse_model("ggx:aniso").value();
+    options.threads = 1;
+    options.model_options.edit<GgxFitOptions>().light = light_of(scene);
+    const auto start = std::chrono::steady_clock::now();
+    auto map = fit_parameter_map(obs, options);
+    const double fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(map) << map.error().describe();
+    MapFitOptions iso = options;
+    iso.model = parse_model("ggx:iso").value();
+    auto iso_map = fit_parameter_map(obs, iso);
+    ASSERT_TRUE(iso_map) << iso_map.error().describe();
+    const auto& model = dynamic_cast<const GgxModel&>(map->model());
+    const double at = std::max(c.alpha_x, c.alpha_y), ab = std::min(c.alpha_x, c.alpha_y);
+    double alpha = 0, angle = 0, f0 = 0, err = 0, iso_err = 0;
+    for (int t = 0; t < S; ++t)
+      for (int s = 0; s < S; ++s) {
+        const GgxMaterial m = model.texel_material(map->parameters(s, t));
+        EXPECT_EQ(model.check_parameters(map->parameters(s, t)), "");
+        alpha = std::max(
+            {alpha, std::abs(m.roughness * m.roughness - at) / at, std::abs(m.roughness_b * m.roughness_b - ab) / ab});
+        double da = std::fmod(std::abs(m.angle - c.expected_angle), kPi);
+        angle = std::max(angle, rad_to_deg(std::min(da, kPi - da)));
+        for (int ch = 0; ch < 3; ++ch) f0 = std::max(f0, std::abs(m.f0[ch] - c.f0[ch]) / c.f0[ch]);
+        err += dense_relative_rms(*map, s, t, scene) / (S * S);
+        iso_err += dense_relative_rms(*iso_map, s, t, scene) / (S * S);
+      }
+    std::printf(
+        "%s: worst relative error alpha_t/alpha_b %.4f, angle %.3f deg, f0 %.4f; dense mean relative RMS ggx:aniso "
+        "%.2f %%, ggx:iso %.2f %%; fit %.2f ms per texel\n",
+        c.name, alpha, angle, f0, 100 * err, 100 * iso_err, fit_ms / (S * S));
+    EXPECT_LT(alpha, c.alpha_tol);
+    EXPECT_LT(angle, c.angle_tol_deg);
+    EXPECT_LT(f0, c.f0_tol);
+    EXPECT_LT(err, c.dense_tol);
+    EXPECT_LT(err, 0.2 * iso_err);
   }
 }
 

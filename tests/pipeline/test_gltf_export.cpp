@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "../fitting/rig_observations.hpp"
+#include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
@@ -147,6 +148,159 @@ TEST(GltfExport, ADielectricNeedsNoExtension) {
   if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
   EXPECT_EQ(report["errors"], 0) << report.dump(1);
   EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+}
+
+TEST(GltfExport, ShadingNormalsAsATangentSpaceNormalTexture) {
+  // ggx:iso+n's normals in normalTexture, read back through glTF's own definitions: the bitangent is
+  // cross(NORMAL, TANGENT.xyz) TANGENT.w, and the texture's green channel points up the image (toward smaller v),
+  // which the quad's UVs locate on the surface. Texel (1, 0) tilts toward the surface's +x, texel (2, 1) toward +y.
+  test::TempDir dir("gltf_export_normals");
+  fitting::ParameterMap map(fitting::parse_model("ggx:iso+n").value(), 3, 2, 300.0, 200.0);
+  const double tilt = std::sin(deg_to_rad(20.0));
+  for (int t = 0; t < 2; ++t)
+    for (int s = 0; s < 3; ++s) {
+      const double nx = s == 1 && t == 0 ? tilt : 0.0, ny = s == 2 && t == 1 ? tilt : 0.0;
+      map.set_parameters(s, t, std::vector<double>{0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.4, nx, ny, 0, 0, 1, 1, 1, 1});
+    }
+  auto written = export_gltf(map, dir, "bumped");
+  ASSERT_TRUE(written) << written.error().describe();
+  const nlohmann::json gltf = read_json(written->gltf);
+  const nlohmann::json& primitive = gltf["meshes"][0]["primitives"][0];
+  ASSERT_TRUE(primitive["attributes"].contains("TANGENT"));
+  const std::string bin = read_bytes(dir / "bumped.bin");
+  ASSERT_EQ(bin.size(), gltf["buffers"][0]["byteLength"].get<size_t>());
+  const auto& tangent_view =
+      gltf["bufferViews"][gltf["accessors"][primitive["attributes"]["TANGENT"].get<int>()]["bufferView"].get<int>()];
+  const size_t at = tangent_view["byteOffset"].get<size_t>();
+  const Vec3d n_gltf(float_at(bin, 48), float_at(bin, 52), float_at(bin, 56));  // vertex 0's NORMAL
+  const Vec3d tangent(float_at(bin, at), float_at(bin, at + 4), float_at(bin, at + 8));
+  const Vec3d bitangent = n_gltf.cross(tangent) * float_at(bin, at + 12);
+  // "Up the image" on the quad: the position's change toward smaller v, from vertices 0 and 3 (same u).
+  auto position = [&](size_t k) {
+    return Vec3d(float_at(bin, 12 * k), float_at(bin, 12 * k + 4), float_at(bin, 12 * k + 8));
+  };
+  auto v_of = [&](size_t k) { return float_at(bin, 96 + 8 * k + 4); };
+  const Vec3d up_image = (position(0) - position(3)) * (v_of(0) < v_of(3) ? 1.0 : -1.0);
+  EXPECT_GT(bitangent.dot(up_image.normalized()), 0.999);
+  const cv::Mat normal = read_png(dir / "bumped_normal.png").value();
+  ASSERT_EQ(normal.cols, 3);
+  ASSERT_EQ(normal.rows, 2);
+  const int source = gltf["textures"][gltf["materials"][0]["normalTexture"]["index"].get<int>()]["source"];
+  EXPECT_EQ(gltf["images"][source]["uri"], "bumped_normal.png");
+  for (int t = 0; t < 2; ++t)
+    for (int s = 0; s < 3; ++s) {
+      const cv::Vec3b bgr = normal.at<cv::Vec3b>(t, s);  // image row t: glTF's UV addresses row 0 first
+      auto decode = [](uint8_t code) { return 2.0 * code / 255.0 - 1.0; };
+      const Vec3d in_tangent_space(decode(bgr[2]), decode(bgr[1]), decode(bgr[0]));
+      const Vec3d n =
+          (in_tangent_space.x() * tangent + in_tangent_space.y() * bitangent + in_tangent_space.z() * n_gltf)
+              .normalized();
+      const Vec3d surface(n.x(), -n.z(), n.y());  // glTF (x, y, z) is the surface's (x, z, -y)
+      const Vec3d expected =
+          dynamic_cast<const fitting::GgxModel&>(map.model()).texel_material(map.parameters(s, t)).normal;
+      EXPECT_LT((surface - expected).norm(), 0.01) << s << " " << t << ": " << surface.transpose();
+    }
+  bool skipped = false;
+  const nlohmann::json report = validate(written->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, normals
+}
+
+TEST(GltfExport, AnisotropyAsKhrMaterialsAnisotropy) {
+  // ggx:aniso's two roughnesses and angle, read back as KHR_materials_anisotropy defines them: roughness^2 = alpha_b,
+  // alpha_t = mix(alpha_b, 1, strength^2), the direction in the tangent space of TANGENT and cross(NORMAL, TANGENT) w.
+  test::TempDir dir("gltf_export_aniso");
+  fitting::ParameterMap map(fitting::parse_model("ggx:aniso").value(), 2, 1, 200.0, 100.0);
+  const double angles[] = {deg_to_rad(30.0), deg_to_rad(120.0)};
+  for (int s = 0; s < 2; ++s)
+    map.set_parameters(s, 0,
+                       std::vector<double>{0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.6, 0.3, angles[s], 0, 0, 1, 1, 1, 1});
+  auto written = export_gltf(map, dir, "brushed");
+  ASSERT_TRUE(written) << written.error().describe();
+  const nlohmann::json gltf = read_json(written->gltf);
+  EXPECT_EQ(gltf["extensionsUsed"][0], "KHR_materials_anisotropy");
+  const nlohmann::json& ext = gltf["materials"][0]["extensions"]["KHR_materials_anisotropy"];
+  EXPECT_EQ(ext["anisotropyStrength"], 1.0);
+  EXPECT_EQ(ext["anisotropyRotation"], 0.0);
+  ASSERT_TRUE(gltf["meshes"][0]["primitives"][0]["attributes"].contains("TANGENT"));
+  const std::string bin = read_bytes(dir / "brushed.bin");
+  const Vec3d n_gltf(float_at(bin, 48), float_at(bin, 52), float_at(bin, 56));
+  const Vec3d tangent(float_at(bin, 140), float_at(bin, 144), float_at(bin, 148));
+  const Vec3d bitangent = n_gltf.cross(tangent) * float_at(bin, 152);
+  auto image_of = [&](int texture) {
+    const int source = gltf["textures"][texture]["source"];
+    return read_png(dir / gltf["images"][source]["uri"].get<std::string>()).value();
+  };
+  const cv::Mat mr = image_of(gltf["materials"][0]["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"]);
+  const cv::Mat an = image_of(ext["anisotropyTexture"]["index"]);
+  for (int s = 0; s < 2; ++s) {
+    const double roughness = mr.at<cv::Vec3b>(0, s)[1] / 255.0, ab = roughness * roughness;
+    EXPECT_NEAR(roughness, 0.3, 0.003);
+    const cv::Vec3b bgr = an.at<cv::Vec3b>(0, s);
+    const double strength = bgr[0] / 255.0, at = ab + (1.0 - ab) * strength * strength;
+    EXPECT_NEAR(at, 0.36, 0.005);
+    const Vec3d dir_gltf = (2.0 * bgr[2] / 255.0 - 1.0) * tangent + (2.0 * bgr[1] / 255.0 - 1.0) * bitangent;
+    const Vec3d surface(dir_gltf.x(), -dir_gltf.z(), dir_gltf.y());
+    EXPECT_LT((surface.normalized() - Vec3d(std::cos(angles[s]), std::sin(angles[s]), 0)).norm(), 0.01) << s;
+  }
+  bool skipped = false;
+  const nlohmann::json report = validate(written->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, anisotropy
+}
+
+TEST(GltfExport, OneSelfContainedGlb) {
+  // `--format glb`: the same material in one binary glTF file (header, JSON chunk, BIN chunk with the quad and the
+  // PNGs), whose textures decode to the separate export's.
+  test::TempDir dir("gltf_export_glb");
+  const auto map = ggx_map(Vec3d::Constant(0.04), Vec3d(0.9, 0.7, 0.4));
+  auto separate = export_gltf(map, dir / "gltf", "sample");
+  auto glb = export_gltf(map, dir / "glb", "sample", GltfContainer::kBinary);
+  ASSERT_TRUE(separate && glb) << (separate ? glb.error().describe() : separate.error().describe());
+  EXPECT_EQ(glb->gltf, dir / "glb" / "sample.glb");
+  EXPECT_EQ(glb->written.size(), 1u);
+  const std::string bytes = read_bytes(glb->gltf);
+  auto u32 = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  ASSERT_GE(bytes.size(), 28u);
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(u32(4), 2u);
+  EXPECT_EQ(u32(8), bytes.size());
+  const uint32_t json_length = u32(12);
+  EXPECT_EQ(bytes.substr(16, 4), "JSON");
+  EXPECT_EQ(json_length % 4, 0u);
+  const nlohmann::json gltf = nlohmann::json::parse(bytes.substr(20, json_length));
+  const size_t bin_at = 20 + json_length;
+  EXPECT_EQ(bytes.substr(bin_at + 4, 3), "BIN");
+  EXPECT_EQ(u32(bin_at), bytes.size() - bin_at - 8);
+  EXPECT_EQ(gltf["buffers"][0]["byteLength"].get<size_t>(), u32(bin_at));
+  EXPECT_FALSE(gltf["buffers"][0].contains("uri"));
+  const nlohmann::json separate_gltf = read_json(separate->gltf);
+  ASSERT_EQ(gltf["images"].size(), separate_gltf["images"].size());
+  for (size_t k = 0; k < gltf["images"].size(); ++k) {
+    const auto& image = gltf["images"][k];
+    EXPECT_EQ(image["mimeType"], "image/png");
+    const auto& view = gltf["bufferViews"][image["bufferView"].get<size_t>()];
+    const size_t offset = view["byteOffset"].get<size_t>(), length = view["byteLength"].get<size_t>();
+    EXPECT_EQ(offset % 4, 0u);
+    auto decoded = decode_image(std::string_view(bytes).substr(bin_at + 8 + offset, length), "glb image");
+    ASSERT_TRUE(decoded) << decoded.error().describe();
+    const cv::Mat expected = read_png(dir / "gltf" / separate_gltf["images"][k]["uri"].get<std::string>()).value();
+    EXPECT_EQ(cv::norm(*decoded, expected, cv::NORM_INF), 0.0) << k;
+  }
+  bool skipped = false;
+  const nlohmann::json report = validate(glb->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // the buffer and the three images
 }
 
 TEST(GltfExport, ViewOnlyModelsAreRefusedWithTheReason) {
