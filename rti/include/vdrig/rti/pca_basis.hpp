@@ -101,6 +101,10 @@ struct RbfFitOptions {
 /// viewer decodes. Errors: kInvalidArgument (planes, held-out views, fewer lights than planes + 1), the reader's
 /// kCorrupt/kIo.
 Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOptions& options);
+/// The same fit straight from a stack's photographs (its .lp, or a folder holding one), the codes being the display
+/// values (options.encoding must be kCodes), read a band of rows at a time as `vdrig rti fit STACK` reads them
+/// (stack_fit.hpp), twice: once for the PCA, once for the coefficients. Errors as fit_stack's, and as above.
+Result<RbfBasis> fit_rbf_basis(const std::filesystem::path& stack, const RbfFitOptions& options);
 
 /// Writes `basis` as a relight folder: info.json (type "rbf", colorspace "mrgb", lights, sigma, nplanes, basis,
 /// materials [{range, scale, bias}]) and plane_<j>.jpg (4:4:4). kIo/kNoSpace when writing fails.
