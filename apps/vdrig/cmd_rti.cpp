@@ -33,7 +33,7 @@ Result<cv::Rect> parse_crop(const std::string& text) {
 }
 
 struct ImportArgs {
-  std::string stack, out, crop, response = "codes", compression = "zstd";
+  std::string stack, out, crop, response = "codes", compression = "zstd", model = "hsh:3";
   int tile = 16;
   int zstd_level = -5;  // zstd's fast levels: less CPU for a slightly larger file (docs/rti.md)
 };
@@ -44,7 +44,7 @@ Status run_import_fitted(const ImportArgs& a) {
   if (!a.crop.empty()) return usage("--crop applies to stacks of photographs, not to a fitted file");
   if (fs::path(a.out).extension() != ".exr")
     return usage("--out: a fitted file is imported as a parameter map (.exr), got \"" + a.out + "\"");
-  auto map = rti::read_fitted_file(a.stack);
+  auto map = rti::read_fitted_file(a.stack, a.model);
   if (!map) return map.error();
   VDRIG_TRY(map->write(a.out));
   std::printf("wrote %s (%s, %dx%d texels) from %s\n", a.out.c_str(), map->model().name().c_str(), map->texels_s(),
@@ -215,6 +215,9 @@ const CommandRegistrar kRti([](CLI::App& root) {
         ->capture_default_str();
     cmd->add_option("--tile", a->tile, "observation map: texels per tile side")->capture_default_str();
     cmd->add_option("--zstd-level", a->zstd_level, "observation map: zstd level (negative: zstd's fast levels)")
+        ->capture_default_str();
+    cmd->add_option("--model", a->model,
+                    "relight rbf folders: the model fitted to the basis (vdrig has no rbf model): hsh:N, ptm:rgb")
         ->capture_default_str();
     cmd->callback([a] { finish(run_import(*a)); });
   }

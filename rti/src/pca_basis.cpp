@@ -18,6 +18,8 @@
 #include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::rti {
 namespace {
@@ -618,6 +620,86 @@ Result<RbfBasis> read_relight_rbf(const fs::path& where) {
               bgr.at<cv::Vec3b>(y, x)[2 - static_cast<int>(ch)];
   }
   return b;
+}
+
+}  // namespace vdrig::rti
+
+namespace vdrig::rti {
+
+Result<fitting::ParameterMap> rbf_parameter_map(const RbfBasis& b, const fitting::ModelPtr& model) {
+  if (!model->linear_in_shared_directions())
+    return invalid(model->name() +
+                   " cannot hold an rbf basis here: a model linear in its light directions (hsh:N, "
+                   "ptm:rgb, sh-*:N) is fitted to it");
+  const int N = static_cast<int>(b.lights.size()), P = b.planes;
+  fitting::MapFitOptions fit_options;
+  fit_options.model = model;
+  VDRIG_TRY(model->check_options(fit_options));
+  auto op = model->fit_operator(b.lights, fit_options);
+  if (!op) return op.error();
+  const int K = op->coeff_count();
+  if (N < K)
+    return invalid(model->name() + " has " + std::to_string(K) + " coefficients per channel; the basis has only " +
+                   std::to_string(N) + " lights");
+  // The model's basis Y (N x K) from evaluate() of unit parameters, as stack_fit.cpp: the fit is c = F f, its
+  // prediction Y c.
+  MatrixXd Y(N, K);
+  {
+    std::vector<double> unit(static_cast<size_t>(3 * K), 0.0);
+    for (int k = 0; k < K; ++k) {
+      unit[static_cast<size_t>(k)] = 1.0;
+      for (int j = 0; j < N; ++j) Y(j, k) = model->evaluate(unit, b.lights[static_cast<size_t>(j)])[0];
+      unit[static_cast<size_t>(k)] = 0.0;
+    }
+  }
+  const MatrixXd& F = op->matrix();
+  // What the viewer shows at light j, channel k, is linear in the texel's [1, c_0 .. c_{P-1}]: B_k (N x (P + 1))
+  // with B_k(j, p) = Σ_i w_i(l_j) table(p, i, k). So the parameters are M_k [1; c] with M_k = F B_k, and the
+  // squared residual [1; c]^T R_k^T R_k [1; c] with R_k = (I - Y F) B_k.
+  std::vector<MatrixXd> M(3), Q(3);
+  for (int k = 0; k < 3; ++k) {
+    MatrixXd B(N, P + 1);
+    for (int j = 0; j < N; ++j) {
+      const std::vector<double> w = rbf_weights(b.lights, b.lights[static_cast<size_t>(j)], RbfWeights::kOpenLime);
+      for (int p = 0; p <= P; ++p) {
+        double v = 0.0;
+        for (int i = 0; i < N; ++i) v += w[static_cast<size_t>(i)] * b.table(p, i, k);
+        B(j, p) = v;
+      }
+    }
+    M[static_cast<size_t>(k)] = F * B;
+    const MatrixXd R = B - Y * M[static_cast<size_t>(k)];
+    Q[static_cast<size_t>(k)] = R.transpose() * R / N;
+  }
+  fitting::ParameterMap map(model, b.width, b.height, b.width, b.height);
+  VectorXd c(P + 1);
+  std::vector<double> parameters(static_cast<size_t>(3 * K));
+  std::vector<float> rms_codes;
+  rms_codes.reserve(static_cast<size_t>(b.width) * b.height);
+  for (int row = 0; row < b.height; ++row)
+    for (int s = 0; s < b.width; ++s) {
+      const size_t x = static_cast<size_t>(row) * b.width + static_cast<size_t>(s);
+      c[0] = 1.0;
+      for (int p = 0; p < P; ++p) {
+        const size_t pp = static_cast<size_t>(p);
+        c[p + 1] = (b.coefficient_bytes[pp][x] / 255.0 - b.bias[pp]) * b.scale[pp];
+      }
+      fitting::FitQuality q;
+      for (int k = 0; k < 3; ++k) {
+        const VectorXd params = M[static_cast<size_t>(k)] * c;  // parameters are channel by channel
+        for (int j = 0; j < K; ++j) parameters[static_cast<size_t>(k * K + j)] = params[j];
+        q.rms[k] = std::sqrt(std::max(0.0, c.dot(Q[static_cast<size_t>(k)] * c)));
+      }
+      q.samples = N;
+      const int t = b.height - 1 - row;  // plane rows from the top: texel row t is image row height - 1 - t
+      map.set_parameters(s, t, parameters);
+      map.set_quality(s, t, q);
+      rms_codes.push_back(static_cast<float>(255.0 * (q.rms[0] + q.rms[1] + q.rms[2]) / 3.0));
+    }
+  std::nth_element(rms_codes.begin(), rms_codes.begin() + static_cast<long>(rms_codes.size() / 2), rms_codes.end());
+  log::get("rti")->info("rbf basis ({} planes, {} lights) as {}: median RMS {:.3f} codes from the rbf at its lights", P,
+                        N, model->name(), rms_codes.empty() ? 0.0f : rms_codes[rms_codes.size() / 2]);
+  return map;
 }
 
 }  // namespace vdrig::rti

@@ -32,6 +32,7 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
 
 namespace vdrig::rti {
 
@@ -114,5 +115,11 @@ Status write_relight_rbf(const RbfBasis& basis, const std::filesystem::path& out
 /// write_relight_rbf writes it, planes decoded by OpenCV's JPEG decoder. kNotFound, kCorrupt (malformed JSON,
 /// sizes that disagree), kUnsupported (another type or colour space).
 Result<RbfBasis> read_relight_rbf(const std::filesystem::path& folder);
+
+/// `basis` as a parameter map of `model` (linear in shared directions: hsh:N, ptm:rgb, sh-*:N; kInvalidArgument
+/// otherwise), for `vdrig view`, `render`, `compare` (vdrig has no rbf model): each texel's least-squares fit of what
+/// OpenLIME shows at the basis's own lights (render_rbf before the canvas's clamp; values in [0, 1] units). Lossy:
+/// rms.R/G/B hold each texel's RMS distance from that rendering at those lights, in [0, 1] units.
+Result<fitting::ParameterMap> rbf_parameter_map(const RbfBasis& basis, const fitting::ModelPtr& model);
 
 }  // namespace vdrig::rti
