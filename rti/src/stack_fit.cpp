@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <barrier>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -90,8 +91,13 @@ Result<fitting::ParameterMap> fit_stack(const fs::path& stack, const StackFitOpt
                              loo ? &channel("loo.B") : nullptr};
   cv::Mat& n_channel = channel("n");
   const int threads = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  const int band_rows = std::clamp(kTexelsPerBand / W, 1, H);
-  RowMajorXf values(n, static_cast<Eigen::Index>(band_rows) * W * 3);  // row j: image j's band, texel by texel
+  const int band_rows = std::clamp(kTexelsPerBand / W, 1, H), bands = (H + band_rows - 1) / band_rows;
+  // Two band buffers (row j: image j's band, texel by texel): the threads decode band b + 1 into one while others
+  // still fit band b from the other, so one barrier per band suffices (decoded -> fitted). Under load, every
+  // barrier waits for the slowest thread to be scheduled: at 60 images of 256 x 256 the former two barriers and two
+  // thread start-ups per band were most of the wall time.
+  RowMajorXf buffers[2] = {RowMajorXf(n, static_cast<Eigen::Index>(band_rows) * W * 3),
+                           RowMajorXf(n, static_cast<Eigen::Index>(band_rows) * W * 3)};
   // Per thread, kept from band to band (a fresh allocation per band cost page faults).
   struct Work {
     Eigen::MatrixXf coeffs;  // K x columns
@@ -99,51 +105,61 @@ Result<fitting::ParameterMap> fit_stack(const fs::path& stack, const StackFitOpt
     Eigen::Array<float, 1, Eigen::Dynamic> sq, sq_loo, pct, pct_n;
   };
   std::vector<Work> work(static_cast<size_t>(threads));
-  for (int y0 = 0; y0 < H; y0 += band_rows) {
-    const int rows = std::min(band_rows, H - y0);
-    // Decoding: every thread takes its share of the photographs.
-    VDRIG_TRY(rows_in.read_rows(rows, values.data(), values.outerStride(), 3, threads));
-    // Fitting: every thread takes its share of the band's texels, as matrix products and column reductions.
-    const int texels = rows * W;
-    parallel_for_strided(threads, threads, [&](int w) {
+  std::vector<Status> decoded(static_cast<size_t>(n), Status::ok());
+  std::barrier<> band_decoded(threads);
+  parallel_for_strided(threads, threads, [&](int w) {
+    for (int b = 0; b < bands; ++b) {
+      const int y0 = b * band_rows, rows = std::min(band_rows, H - y0);
+      RowMajorXf& values = buffers[b % 2];
+      // Decoding: every thread takes its share of the photographs.
+      for (int v = w; v < n; v += threads)
+        decoded[static_cast<size_t>(v)] = rows_in.read_image_rows(v, rows, values.row(v).data(), 3);
+      band_decoded.arrive_and_wait();
+      // Every thread sees every status of the band here, so all stop at the same band.
+      if (std::any_of(decoded.begin(), decoded.end(), [](const Status& s) { return !s; })) return;
+      // Fitting: every thread takes its share of the band's texels, as matrix products and column reductions.
+      const int texels = rows * W;
       const int first_texel = texels * w / threads, last_texel = texels * (w + 1) / threads;
-      if (first_texel == last_texel) return;
-      Work& k = work[static_cast<size_t>(w)];
-      const int cols = 3 * (last_texel - first_texel);  // column = one channel of one texel
-      const auto v = values.middleCols(3 * first_texel, cols);
-      k.coeffs.noalias() = fit_f * v;
-      k.residual.noalias() = basis_f * k.coeffs;  // row-major like the samples: every pass below reads rows
-      k.residual -= v;
-      k.sq.setZero(cols);
-      k.sq_loo.setZero(cols);
-      k.pct.setZero(cols);
-      k.pct_n.setZero(cols);
-      for (int j = 0; j < n; ++j) {
-        const auto r = k.residual.row(j).array();
-        const auto f = v.row(j).array();
-        k.sq += r.square();
-        k.sq_loo += r.square() * (loo_scale[j] * loo_scale[j]);
-        // Mean percentage error over the samples with a positive value (SharedDirectionLinearFit::residual_quality).
-        k.pct += (f > 0.0f).select(r.abs() / f, 0.0f);
-        k.pct_n += (f > 0.0f).cast<float>();
-      }
-      std::vector<double> parameters(static_cast<size_t>(P));
-      for (int i = first_texel; i < last_texel; ++i) {
-        const int s = i % W, t = H - 1 - (y0 + i / W);  // texel rows grow with y, up in the image
-        for (int c = 0; c < 3; ++c) {
-          const Eigen::Index col = 3 * (i - first_texel) + c;
-          for (int j = 0; j < K; ++j) parameters[static_cast<size_t>(c * K + j)] = k.coeffs(j, col);
-          // As SharedDirectionLinearFit::residual_quality and ParameterMap::set_quality.
-          rms_channel[c]->at<float>(t, s) = std::sqrt(k.sq[col] / static_cast<float>(n));
-          mpe_channel[c]->at<float>(t, s) = k.pct_n[col] > 0 ? 100.0f * k.pct[col] / k.pct_n[col] : 0.0f;
-          if (loo) loo_channel[c]->at<float>(t, s) = std::sqrt(k.sq_loo[col] / static_cast<float>(n));
+      if (first_texel < last_texel) {
+        Work& k = work[static_cast<size_t>(w)];
+        const int cols = 3 * (last_texel - first_texel);  // column = one channel of one texel
+        const auto v = values.middleCols(3 * first_texel, cols);
+        k.coeffs.noalias() = fit_f * v;
+        k.residual.noalias() = basis_f * k.coeffs;  // row-major like the samples: every pass below reads rows
+        k.residual -= v;
+        k.sq.setZero(cols);
+        k.sq_loo.setZero(cols);
+        k.pct.setZero(cols);
+        k.pct_n.setZero(cols);
+        for (int j = 0; j < n; ++j) {
+          const auto r = k.residual.row(j).array();
+          const auto f = v.row(j).array();
+          k.sq += r.square();
+          k.sq_loo += r.square() * (loo_scale[j] * loo_scale[j]);
+          // Mean percentage error over the samples with a positive value (SharedDirectionLinearFit::
+          // residual_quality).
+          k.pct += (f > 0.0f).select(r.abs() / f, 0.0f);
+          k.pct_n += (f > 0.0f).cast<float>();
         }
-        n_channel.at<float>(t, s) = static_cast<float>(n);
-        map.set_parameters(s, t, parameters);
+        std::vector<double> parameters(static_cast<size_t>(P));
+        for (int i = first_texel; i < last_texel; ++i) {
+          const int s = i % W, t = H - 1 - (y0 + i / W);  // texel rows grow with y, up in the image
+          for (int c = 0; c < 3; ++c) {
+            const Eigen::Index col = 3 * (i - first_texel) + c;
+            for (int j = 0; j < K; ++j) parameters[static_cast<size_t>(c * K + j)] = k.coeffs(j, col);
+            // As SharedDirectionLinearFit::residual_quality and ParameterMap::set_quality.
+            rms_channel[c]->at<float>(t, s) = std::sqrt(k.sq[col] / static_cast<float>(n));
+            mpe_channel[c]->at<float>(t, s) = k.pct_n[col] > 0 ? 100.0f * k.pct[col] / k.pct_n[col] : 0.0f;
+            if (loo) loo_channel[c]->at<float>(t, s) = std::sqrt(k.sq_loo[col] / static_cast<float>(n));
+          }
+          n_channel.at<float>(t, s) = static_cast<float>(n);
+          map.set_parameters(s, t, parameters);
+        }
       }
-    });
-    if (options.on_progress) options.on_progress(y0 + rows, H);
-  }
+      if (w == 0 && options.on_progress) options.on_progress(y0 + rows, H);  // thread 0 is the caller's
+    }
+  });
+  for (const Status& s : decoded) VDRIG_TRY(s);
   log::get("rti")->info("fitted {} ({} images of {}x{}) from {} in one pass", model->name(), n, W, H,
                         listed->lp_file.string());
   return map;

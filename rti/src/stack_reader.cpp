@@ -279,4 +279,8 @@ Status StackRows::read_rows(int rows, float* out, std::ptrdiff_t image_stride, s
   return Status::ok();
 }
 
+Status StackRows::read_image_rows(int j, int rows, float* out, std::ptrdiff_t texel_stride) {
+  return sources_[static_cast<size_t>(j)]->read_rows(rows, out, texel_stride);
+}
+
 }  // namespace vdrig::rti

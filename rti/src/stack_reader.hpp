@@ -51,6 +51,8 @@ class StackRows {
   /// channel c (R G B) at texel x of the band (x counts the band's texels row by row) goes to
   /// out[j * image_stride + x * texel_stride + c].
   Status read_rows(int rows, float* out, std::ptrdiff_t image_stride, std::ptrdiff_t texel_stride, int threads);
+  /// The same for image j alone (images may be read concurrently, each by one thread): out[x * texel_stride + c].
+  Status read_image_rows(int j, int rows, float* out, std::ptrdiff_t texel_stride);
 
  private:
   StackRows();
