@@ -52,8 +52,8 @@ Status write_ptm(const ParameterMap& map, bool rgb, const fs::path& out) {
   // twice (the ranges, then the bytes) rather than kept: 18 doubles per texel were 9 MB at 256 x 256, the largest
   // allocation of `vdrig rti fit STACK --out x.ptm`.
   std::vector<double> p;
-  double a[18];
-  uint8_t colour[3];
+  double a[18] = {};
+  uint8_t colour[3] = {};
   const auto texel = [&](size_t i) {
     p = map.parameters(static_cast<int>(i % static_cast<size_t>(S)), static_cast<int>(i / static_cast<size_t>(S)));
     if (rgb) {
