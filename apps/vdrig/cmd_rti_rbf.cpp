@@ -1,6 +1,7 @@
 #include "cmd_rti_rbf.hpp"
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -14,7 +15,7 @@ namespace vdrig::app {
 namespace {
 
 struct RbfArgs {
-  std::string obsmap, out, encoding = "codes", held_out;
+  std::string input, out, encoding = "codes", held_out;
   int planes = 9, quality = 95, threads = 0;
 };
 
@@ -46,13 +47,21 @@ Status run_rbf(const RbfArgs& a) {
     if (!views) return views.error();
     options.held_out = std::move(views.value());
   }
-  auto obs = fitting::ObsMapReader::open(a.obsmap);
-  if (!obs) return obs.error();
   ProgressLine progress;
   options.on_progress = [&progress](const std::string& stage, int done, int total) {
     progress.update(done, total, "  %s %d/%d", stage.c_str(), done, total);
   };
-  auto basis = rti::fit_rbf_basis(obs.value(), options);
+  // A stack (its .lp, or a folder holding one) is read straight from its photographs, as `vdrig rti fit STACK`.
+  std::error_code ec;
+  const bool stack = std::filesystem::is_directory(a.input, ec) || std::filesystem::path(a.input).extension() == ".lp";
+  Result<rti::RbfBasis> basis = make_error(ErrorCode::kInternal, "not fitted");
+  if (stack) {
+    basis = rti::fit_rbf_basis(std::filesystem::path(a.input), options);
+  } else {
+    auto obs = fitting::ObsMapReader::open(a.input);
+    if (!obs) return obs.error();
+    basis = rti::fit_rbf_basis(obs.value(), options);
+  }
   progress.finish();
   if (!basis) return basis.error();
   VDRIG_TRY(rti::write_relight_rbf(basis.value(), a.out));
@@ -66,12 +75,15 @@ Status run_rbf(const RbfArgs& a) {
 void add_rti_rbf_command(CLI::App& rti) {
   auto a = std::make_shared<RbfArgs>();
   auto* cmd = rti.add_subcommand(
-      "rbf", "imported stack -> relight folder of PCA planes with RBF light interpolation (relight's default basis)");
-  cmd->add_option("obsmap", a->obsmap, "observation-map file (vdrig rti import)")->required();
+      "rbf", "stack -> relight folder of PCA planes with RBF light interpolation (relight's default basis)");
+  cmd->add_option("input", a->input,
+                  "the stack (its .lp, or a folder holding one), or an observation-map file (vdrig rti import)")
+      ->required();
   cmd->add_option("--out", a->out, "relight folder to write (info.json + plane_<k>.jpg)")->required();
   cmd->add_option("--planes", a->planes, "PCA planes, a multiple of 3 (3..48)")->capture_default_str();
   cmd->add_option("--encoding", a->encoding,
-                  "the stack's values: codes (imported with --response codes/linear) | srgb (with --response sRGB)")
+                  "observation maps: their values: codes (imported with --response codes/linear) | srgb (with "
+                  "--response sRGB)")
       ->capture_default_str();
   cmd->add_option("--hold-out", a->held_out, "comma-separated view indices left out of the fit");
   cmd->add_option("--quality", a->quality, "JPEG quality 1..100")->capture_default_str();

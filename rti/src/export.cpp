@@ -48,24 +48,30 @@ using TexelCoefficients = std::function<Eigen::MatrixXd(int s, int t)>;
 
 Status write_ptm(const ParameterMap& map, bool rgb, const fs::path& out) {
   const int S = map.texels_s(), T = map.texels_t();
-  // Coefficients in code units: a[(t * S + s) * 18 + 6 c + k] (RGB), or L' and the colour bytes (LRGB).
-  std::vector<double> a(static_cast<size_t>(S) * T * (rgb ? 18 : 6));
-  std::vector<uint8_t> colour(rgb ? 0 : static_cast<size_t>(S) * T * 3);
-  for (int t = 0; t < T; ++t)
-    for (int s = 0; s < S; ++s) {
-      const std::vector<double> p = map.parameters(s, t);
-      const size_t i = static_cast<size_t>(t) * S + s;
-      if (rgb) {
-        for (int k = 0; k < 18; ++k) a[18 * i + k] = kCodes * p[static_cast<size_t>(k)];
-      } else {
-        // colour = L' rgb / 255 with the brightest channel of rgb at 255: L' = L max(chroma).
-        const double m = std::max({p[6], p[7], p[8], 1e-12});
-        for (int k = 0; k < 6; ++k) a[6 * i + k] = kCodes * p[static_cast<size_t>(k)] * m;
-        for (int c = 0; c < 3; ++c) colour[3 * i + c] = to_byte(kCodes * std::max(0.0, p[6 + c]) / m);
-      }
+  // Texel i's coefficients in code units, a[6 c + k] (RGB), or L' in a[k] and the colour bytes (LRGB). Computed
+  // twice (the ranges, then the bytes) rather than kept: 18 doubles per texel were 9 MB at 256 x 256, the largest
+  // allocation of `vdrig rti fit STACK --out x.ptm`.
+  std::vector<double> p;
+  double a[18] = {};
+  uint8_t colour[3] = {};
+  const auto texel = [&](size_t i) {
+    p = map.parameters(static_cast<int>(i % static_cast<size_t>(S)), static_cast<int>(i / static_cast<size_t>(S)));
+    if (rgb) {
+      for (int k = 0; k < 18; ++k) a[k] = kCodes * p[static_cast<size_t>(k)];
+    } else {
+      // colour = L' rgb / 255 with the brightest channel of rgb at 255: L' = L max(chroma).
+      const double m = std::max({p[6], p[7], p[8], 1e-12});
+      for (int k = 0; k < 6; ++k) a[k] = kCodes * p[static_cast<size_t>(k)] * m;
+      for (int c = 0; c < 3; ++c) colour[c] = to_byte(kCodes * std::max(0.0, p[6 + c]) / m);
     }
+  };
+  const size_t n = static_cast<size_t>(S) * T;
+  const int terms = rgb ? 18 : 6;
   Range range[6];
-  for (size_t j = 0; j < a.size(); ++j) range[j % 6].add(a[j]);
+  for (size_t i = 0; i < n; ++i) {
+    texel(i);
+    for (int j = 0; j < terms; ++j) range[j % 6].add(a[j]);
+  }
   double scale[6];
   int bias[6];
   for (int k = 0; k < 6; ++k) {
@@ -77,19 +83,20 @@ Status write_ptm(const ParameterMap& map, bool rgb, const fs::path& out) {
   for (int k = 0; k < 6; ++k) bytes += format_float(scale[k]) + (k < 5 ? " " : "\n");
   for (int k = 0; k < 6; ++k) bytes += std::to_string(bias[k]) + (k < 5 ? " " : "\n");
   const size_t header = bytes.size();
-  bytes.resize(header + a.size() + colour.size());
+  bytes.resize(header + n * (rgb ? 18 : 9));
   char* data = bytes.data() + header;
   // Texel row 0 (smallest y) is the image's bottom row, which PTM stores first.
-  const size_t n = static_cast<size_t>(S) * T;
-  for (size_t i = 0; i < n; ++i)
+  for (size_t i = 0; i < n; ++i) {
+    texel(i);
     if (rgb) {
       for (int c = 0; c < 3; ++c)  // all red coefficients, then green, then blue
         for (int k = 0; k < 6; ++k)
-          data[c * n * 6 + 6 * i + k] = static_cast<char>(to_byte(a[18 * i + 6 * c + k] / scale[k] + bias[k]));
+          data[c * n * 6 + 6 * i + k] = static_cast<char>(to_byte(a[6 * c + k] / scale[k] + bias[k]));
     } else {
-      for (int k = 0; k < 6; ++k) data[6 * i + k] = static_cast<char>(to_byte(a[6 * i + k] / scale[k] + bias[k]));
-      for (int c = 0; c < 3; ++c) data[6 * n + 3 * i + c] = static_cast<char>(colour[3 * i + c]);
+      for (int k = 0; k < 6; ++k) data[6 * i + k] = static_cast<char>(to_byte(a[k] / scale[k] + bias[k]));
+      for (int c = 0; c < 3; ++c) data[6 * n + 3 * i + c] = static_cast<char>(colour[c]);
     }
+  }
   return write_file_atomic(out, bytes);
 }
 
@@ -106,11 +113,12 @@ TexelCoefficients rti_hsh_coefficients(const ParameterMap& map, int bands) {
 Status write_rti(const ParameterMap& map, int bands, const fs::path& out) {
   const int S = map.texels_s(), T = map.texels_t(), K = bands * bands;
   const TexelCoefficients coefficients = rti_hsh_coefficients(map, bands);
-  std::vector<Eigen::MatrixXd> all(static_cast<size_t>(S) * T);
+  // The coefficients are computed twice (the ranges, then the bytes) rather than kept: a matrix per texel was 16 MB
+  // at 256 x 256.
   std::vector<Range> range(static_cast<size_t>(K));
   for (int t = 0; t < T; ++t)
     for (int s = 0; s < S; ++s) {
-      Eigen::MatrixXd& c = all[static_cast<size_t>(t) * S + s] = coefficients(s, t);
+      const Eigen::MatrixXd c = coefficients(s, t);
       for (int k = 0; k < K; ++k)
         for (int ch = 0; ch < 3; ++ch) range[k].add(c(k, ch));
     }
@@ -124,12 +132,12 @@ Status write_rti(const ParameterMap& map, int bands, const fs::path& out) {
   static_assert(std::endian::native == std::endian::little, "the .rti floats are little-endian");
   bytes.append(reinterpret_cast<const char*>(scale.data()), 4 * scale.size());
   bytes.append(reinterpret_cast<const char*>(bias.data()), 4 * bias.size());
-  bytes.reserve(bytes.size() + all.size() * 3 * K);
+  bytes.reserve(bytes.size() + static_cast<size_t>(S) * T * 3 * K);
   // Rows top to bottom (file row j is image row j, texel row T - 1 - j), as RTIViewer's loader and relight read
   // them: unlike PTM, whose rows go bottom to top. Per texel the R terms, then G, then B.
   for (int row = 0; row < T; ++row)
     for (int s = 0; s < S; ++s) {
-      const Eigen::MatrixXd& c = all[static_cast<size_t>(T - 1 - row) * S + s];
+      const Eigen::MatrixXd c = coefficients(s, T - 1 - row);
       for (int ch = 0; ch < 3; ++ch)
         for (int k = 0; k < K; ++k)
           bytes.push_back(static_cast<char>(to_byte((c(k, ch) - bias[k]) / scale[k] * 255.0)));

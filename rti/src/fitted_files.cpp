@@ -15,6 +15,7 @@
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/model.hpp"
 #include "vdrig/rti/export.hpp"
+#include "vdrig/rti/pca_basis.hpp"
 
 namespace vdrig::rti {
 namespace {
@@ -175,10 +176,17 @@ Result<ParameterMap> read_rti(const fs::path& path) {
   return map;
 }
 
-Result<ParameterMap> read_relight(const fs::path& info_path) {
+Result<ParameterMap> read_relight(const fs::path& info_path, const std::string& rbf_model) {
   auto json = read_json_file(info_path);
   if (!json) return json.error();
   const nlohmann::json& info = json.value();
+  if (info.contains("type") && info["type"] == "rbf") {  // relight's default basis: refitted (pca_basis.hpp)
+    auto model = fitting::parse_model(rbf_model);
+    if (!model) return model.error();
+    auto basis = read_relight_rbf(info_path);
+    if (!basis) return basis.error();
+    return rbf_parameter_map(basis.value(), model.value());
+  }
   const fs::path dir = info_path.parent_path();
   const auto text = [&](const char* key) {
     return info.contains(key) && info[key].is_string() ? info[key].get<std::string>() : std::string();
@@ -187,7 +195,7 @@ Result<ParameterMap> read_relight(const fs::path& info_path) {
   if ((type != "ptm" && type != "hsh") || colorspace != "rgb")
     return make_error(ErrorCode::kUnsupported,
                       info_path.string() + ": relight basis \"" + type + "\" in colour space \"" + colorspace +
-                          "\" (vdrig reads ptm and hsh in rgb; rbf and bilinear bases are not read yet)");
+                          "\" (vdrig reads ptm and hsh in rgb, rbf in mrgb; bilinear bases are not read yet)");
   if (!info.contains("width") || !info["width"].is_number_integer() || !info.contains("height") ||
       !info["height"].is_number_integer() || !info.contains("nplanes") || !info["nplanes"].is_number_integer())
     return corrupt(info_path, "width, height and nplanes must be integers");
@@ -270,7 +278,7 @@ bool is_fitted_file(const fs::path& path) {
   return fs::is_directory(path, ec) && fs::exists(path / "info.json", ec);
 }
 
-Result<ParameterMap> read_fitted_file(const fs::path& path) {
+Result<ParameterMap> read_fitted_file(const fs::path& path, const std::string& rbf_model) {
   const std::string ext = lower_extension(path);
   Result<ParameterMap> map = make_error(ErrorCode::kInternal, "unread");
   if (ext == ".ptm")
@@ -278,9 +286,9 @@ Result<ParameterMap> read_fitted_file(const fs::path& path) {
   else if (ext == ".rti")
     map = read_rti(path);
   else if (path.filename() == "info.json")
-    map = read_relight(path);
+    map = read_relight(path, rbf_model);
   else if (std::error_code ec; fs::is_directory(path, ec))
-    map = read_relight(path / "info.json");
+    map = read_relight(path / "info.json", rbf_model);
   else
     return make_error(ErrorCode::kInvalidArgument,
                       path.string() + ": not a fitted RTI file (.ptm, .rti, or a relight folder with info.json)");

@@ -13,10 +13,13 @@
 #include <thread>
 
 #include "jpeg_444.hpp"
+#include "stack_reader.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/sh.hpp"
 
 namespace vdrig::rti {
 namespace {
@@ -61,15 +64,123 @@ Status parallel_for(int count, int threads, const std::function<Status(int item,
 
 /// Training views' display values of texel (s, t): 3 per view (light-major, R G B).
 void texel_values(const fitting::ObsTile& tile, int s, int t, const std::vector<int>& views, DisplayEncoding encoding,
-                  double* out) {
+                  float* out) {
   Eigen::Vector3f rgb, dir;
   for (size_t i = 0; i < views.size(); ++i) {
     // Every flag is used: an RTI import flags nothing but clipped pixels, whose codes are still the best value
     // the viewer can be asked to show (the fit has no per-texel sample selection, one operator serves all).
     tile.observation(s, t, views[i], &rgb, &dir);
-    for (int k = 0; k < 3; ++k) out[3 * i + k] = display_value(rgb[k], encoding);
+    for (int k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(display_value(rgb[k], encoding));
   }
 }
+
+using MatrixXf = Eigen::MatrixXf;
+
+/// The sample of texels the PCA sees: a sheared lattice (not whole columns) of about `pca_texels` texels.
+bool pca_sample(int s, int t, int64_t step) { return (s + 7 * int64_t(t)) % step == 0; }
+
+/// The stack's texels, a block at a time, for the two passes of the fit (covariance, coefficients): body(worker, y,
+/// s, t) gets y (D x m, D = 3 x lights: column j is texel (s[j], t[j]), row 3 i + k its display value under light i
+/// in channel k) from up to `threads` workers at once, each with its own `worker` index.
+class TexelBlocks {
+ public:
+  using Body = std::function<void(int worker, const Eigen::Ref<const MatrixXf>& y, const std::vector<int>& s,
+                                  const std::vector<int>& t)>;
+  virtual ~TexelBlocks() = default;
+  /// Every texel (step 0) or only those of pca_sample(step); `stage` names the pass for the progress callback.
+  virtual Status for_each(int64_t step, const std::string& stage, const Body& body) = 0;
+};
+
+/// An observation map (vdrig rti import), tile by tile on `threads` workers.
+class ObsMapBlocks final : public TexelBlocks {
+ public:
+  ObsMapBlocks(const fitting::ObsMapReader& obs, std::vector<int> views, DisplayEncoding encoding, int threads,
+               const RbfFitOptions& options)
+      : obs_(obs), views_(std::move(views)), encoding_(encoding), threads_(threads), options_(options) {}
+
+  Status for_each(int64_t step, const std::string& stage, const Body& body) override {
+    const int tiles = obs_.tiles_s() * obs_.tiles_t(), D = 3 * static_cast<int>(views_.size());
+    std::atomic<int> done{0};
+    return parallel_for(tiles, threads_, [&](int item, int worker) -> Status {
+      auto tile = obs_.read_tile(item % obs_.tiles_s(), item / obs_.tiles_s());
+      if (!tile) return tile.error();
+      std::vector<int> s, t;
+      for (int tt = tile->t0(); tt < tile->t0() + tile->height(); ++tt)
+        for (int ss = tile->s0(); ss < tile->s0() + tile->width(); ++ss)
+          if (step == 0 || pca_sample(ss, tt, step)) {
+            s.push_back(ss);
+            t.push_back(tt);
+          }
+      MatrixXf y(D, static_cast<Eigen::Index>(s.size()));
+      for (size_t j = 0; j < s.size(); ++j)
+        texel_values(tile.value(), s[j], t[j], views_, encoding_, y.col(static_cast<Eigen::Index>(j)).data());
+      body(worker, y, s, t);
+      if (options_.on_progress) options_.on_progress(stage, ++done, tiles);
+      return Status::ok();
+    });
+  }
+
+ private:
+  const fitting::ObsMapReader& obs_;
+  std::vector<int> views_;
+  DisplayEncoding encoding_;
+  int threads_;
+  const RbfFitOptions& options_;
+};
+
+/// A stack of photographs (stack_reader.hpp), read from the top a band of rows at a time, each band's images decoded
+/// on every thread and its texels then split between the threads. Every pass opens the images again: the stack is
+/// decoded twice rather than held in memory (289 images of 1024 x 1024 would be 900 MB as bytes).
+class StackBlocks final : public TexelBlocks {
+ public:
+  StackBlocks(const StackList& list, std::vector<int> views, int threads, const RbfFitOptions& options)
+      : list_(list), views_(std::move(views)), threads_(threads), options_(options) {}
+
+  Status for_each(int64_t step, const std::string& stage, const Body& body) override {
+    // The codes are the display values (codes / 255 or / 65535); float images pass unchanged, clamped to 0..1.
+    auto opened = StackRows::open(list_, views_, Linearisation{}, std::nullopt);
+    if (!opened) return opened.error();
+    StackRows& rows_in = opened.value();
+    const int W = rows_in.width(), H = rows_in.height(), D = 3 * rows_in.images();
+    const int band_rows = std::clamp(1024 / W, 1, H);
+    MatrixXf band(D, static_cast<Eigen::Index>(band_rows) * W), picked;
+    for (int y0 = 0; y0 < H; y0 += band_rows) {
+      const int rows = std::min(band_rows, H - y0);
+      // Image j's texel x, channel c at band(3 j + c, x): the column of a texel is its D values.
+      VDRIG_TRY(rows_in.read_rows(rows, band.data(), 3, D, threads_));
+      auto y = band.leftCols(static_cast<Eigen::Index>(rows) * W);
+      y = y.cwiseMax(0.0f).cwiseMin(1.0f);
+      std::vector<int> s, t, columns;
+      for (int r = 0; r < rows; ++r)
+        for (int x = 0; x < W; ++x)
+          if (step == 0 || pca_sample(x, H - 1 - (y0 + r), step)) {
+            s.push_back(x);
+            t.push_back(H - 1 - (y0 + r));  // texel rows grow with y, up in the image (import.hpp)
+            columns.push_back(r * W + x);
+          }
+      if (step != 0) {  // the sampled columns, gathered
+        picked.resize(D, static_cast<Eigen::Index>(columns.size()));
+        for (size_t j = 0; j < columns.size(); ++j) picked.col(static_cast<Eigen::Index>(j)) = y.col(columns[j]);
+      }
+      const MatrixXf& texels = step != 0 ? picked : band;
+      const int m = static_cast<int>(s.size());
+      parallel_for_strided(threads_, threads_, [&](int w) {
+        const int first = m * w / threads_, last = m * (w + 1) / threads_;
+        if (first == last) return;
+        const std::vector<int> ws(s.begin() + first, s.begin() + last), wt(t.begin() + first, t.begin() + last);
+        body(w, texels.middleCols(first, last - first), ws, wt);
+      });
+      if (options_.on_progress) options_.on_progress(stage, y0 + rows, H);
+    }
+    return Status::ok();
+  }
+
+ private:
+  const StackList& list_;
+  std::vector<int> views_;
+  int threads_;
+  const RbfFitOptions& options_;
+};
 
 uint8_t to_byte(double v) { return static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L)); }
 
@@ -154,13 +265,19 @@ std::vector<float> render_rbf(const RbfBasis& b, const Vec3d& light, RbfWeights 
   return out;
 }
 
-Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOptions& options) {
+namespace {
+
+Status check_rbf_options(const RbfFitOptions& options) {
   const int P = options.planes;
   if (P < 3 || P > 48 || P % 3 != 0)
     return invalid("rbf planes " + std::to_string(P) + ": a multiple of 3 from 3 to 48 (OpenLIME reads 3 per JPEG)");
   if (options.jpeg_quality < 1 || options.jpeg_quality > 100)
     return invalid("JPEG quality " + std::to_string(options.jpeg_quality) + ": expected 1..100");
-  const int S = obs.spec().texels_s, T = obs.spec().texels_t, views = obs.views();
+  return Status::ok();
+}
+
+/// Views 0..views-1 without the held-out ones; kInvalidArgument for a held-out view outside them or too few left.
+Result<std::vector<int>> training_views(int views, const RbfFitOptions& options) {
   std::set<int> held(options.held_out.begin(), options.held_out.end());
   for (int v : held)
     if (v < 0 || v >= views)
@@ -168,65 +285,63 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
   std::vector<int> train;
   for (int v = 0; v < views; ++v)
     if (!held.count(v)) train.push_back(v);
-  const int N = static_cast<int>(train.size()), D = 3 * N;
-  if (N < P + 1)
-    return invalid(std::to_string(N) + " lights cannot carry " + std::to_string(P) + " planes (need planes + 1)");
-  const int threads =
-      std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1, 64);
-  const int tiles = obs.tiles_s() * obs.tiles_t();
+  const int N = static_cast<int>(train.size());
+  if (N < options.planes + 1)
+    return invalid(std::to_string(N) + " lights cannot carry " + std::to_string(options.planes) +
+                   " planes (need planes + 1)");
+  return train;
+}
+
+int worker_count(const RbfFitOptions& options) {
+  return std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
+                    64);
+}
+
+/// The fit (pca_basis.hpp) of S x T texels seen through `blocks` under `lights` (unit, the training views').
+Result<RbfBasis> fit_rbf(TexelBlocks& blocks, int S, int T, std::vector<Vec3d> lights, const RbfFitOptions& options) {
+  const int P = options.planes, N = static_cast<int>(lights.size()), D = 3 * N;
+  const int threads = worker_count(options);
   auto progress = [&](const std::string& stage, int done, int total) {
     if (options.on_progress) options.on_progress(stage, done, total);
   };
-
   RbfBasis out;
   out.width = S;
   out.height = T;
   out.planes = P;
   out.jpeg_quality = options.jpeg_quality;
-  {  // the lights: every texel of an RTI map sees view v from the same direction
-    auto tile = obs.read_tile(0, 0);
-    if (!tile) return tile.error();
-    Eigen::Vector3f rgb, dir;
-    for (int v : train) {
-      tile->observation(tile->s0(), tile->t0(), v, &rgb, &dir);
-      out.lights.push_back(dir.cast<double>().normalized());
-    }
-  }
+  out.lights = std::move(lights);
 
-  // 1. PCA of the display values over a subsample of texels: sums of y and y y^T per worker.
+  // 1. PCA of the display values over a subsample of texels: sums of y and (y - 1/2)(y - 1/2)^T per worker, in
+  // single precision (twice the speed of double in the matrix product; the shift by 1/2, mid-range, keeps the
+  // centring's cancellation small, and 8-bit values need no more).
   const int64_t step = std::max<int64_t>(1, int64_t(S) * T / std::max(1, options.pca_texels));
-  std::vector<MatrixXd> cov(static_cast<size_t>(threads), MatrixXd::Zero(D, D));
+  std::vector<MatrixXf> cov(static_cast<size_t>(threads));
   std::vector<VectorXd> sum(static_cast<size_t>(threads), VectorXd::Zero(D));
   std::vector<int64_t> count(static_cast<size_t>(threads), 0);
-  std::atomic<int> tiles_done{0};
-  VDRIG_TRY(parallel_for(tiles, threads, [&](int item, int worker) -> Status {
-    auto tile = obs.read_tile(item % obs.tiles_s(), item / obs.tiles_s());
-    if (!tile) return tile.error();
-    std::vector<std::pair<int, int>> picked;
-    for (int t = tile->t0(); t < tile->t0() + tile->height(); ++t)
-      for (int s = tile->s0(); s < tile->s0() + tile->width(); ++s)
-        if ((s + 7 * int64_t(t)) % step == 0) picked.emplace_back(s, t);  // a sheared lattice, not whole columns
-    MatrixXd y(D, static_cast<Eigen::Index>(picked.size()));
-    for (size_t j = 0; j < picked.size(); ++j)
-      texel_values(tile.value(), picked[j].first, picked[j].second, train, options.encoding,
-                   y.col(static_cast<Eigen::Index>(j)).data());
-    const size_t w = static_cast<size_t>(worker);
-    cov[w].selfadjointView<Eigen::Lower>().rankUpdate(y);
-    sum[w] += y.rowwise().sum();
-    count[w] += static_cast<int64_t>(picked.size());
-    progress("covariance", ++tiles_done, tiles);
-    return Status::ok();
-  }));
-  for (size_t w = 1; w < cov.size(); ++w) {
-    cov[0] += cov[w];
-    sum[0] += sum[w];
-    count[0] += count[w];
+  VDRIG_TRY(blocks.for_each(step, "covariance",
+                            [&](int worker, const Eigen::Ref<const MatrixXf>& y, const std::vector<int>& /*s*/,
+                                const std::vector<int>& /*t*/) {
+                              const size_t w = static_cast<size_t>(worker);
+                              if (cov[w].size() == 0) cov[w] = MatrixXf::Zero(D, D);
+                              const MatrixXf shifted = y.array() - 0.5f;
+                              cov[w].selfadjointView<Eigen::Lower>().rankUpdate(shifted);
+                              sum[w] += y.cast<double>().rowwise().sum();
+                              count[w] += y.cols();
+                            }));
+  MatrixXd C = MatrixXd::Zero(D, D);
+  for (size_t w = 0; w < cov.size(); ++w) {
+    if (cov[w].size() != 0) C += cov[w].cast<double>();
+    if (w > 0) {
+      sum[0] += sum[w];
+      count[0] += count[w];
+    }
   }
-  cov.resize(1);
+  cov.clear();
+  if (count[0] == 0) return invalid("no texels to fit");
   const double n = static_cast<double>(count[0]);
-  const VectorXd mean = sum[0] / n;
-  MatrixXd C = cov[0].selfadjointView<Eigen::Lower>();
-  C = (C - n * mean * mean.transpose()) / n;
+  const VectorXd mean = sum[0] / n, shift = mean.array() - 0.5;
+  C = C.selfadjointView<Eigen::Lower>();
+  C = (C - n * shift * shift.transpose()) / n;
   progress("eigenvectors", 0, 1);
   // Only the P leading eigenvectors are needed: subspace iteration on P + 8 vectors costs D^2 (P + 8) per step
   // instead of the full decomposition's ~10 D^3 (867 x 867 at 289 lights: ~0.1 s instead of ~1.5 s). RTI stacks
@@ -302,26 +417,19 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
   const VectorXd b = R.col(0);
   const MatrixXd A = R.rightCols(P);
   const MatrixXd G = (A.transpose() * A).ldlt().solve(A.transpose());  // P x D
+  const Eigen::MatrixXf Gf = G.cast<float>();
+  const Eigen::VectorXf Gb = (G * b).cast<float>();
   std::vector<std::vector<float>> coeff(static_cast<size_t>(P), std::vector<float>(static_cast<size_t>(S) * T));
-  tiles_done = 0;
-  VDRIG_TRY(parallel_for(tiles, threads, [&](int item, int /*worker*/) -> Status {
-    auto tile = obs.read_tile(item % obs.tiles_s(), item / obs.tiles_s());
-    if (!tile) return tile.error();
-    const int w = tile->width(), h = tile->height();
-    MatrixXd y(D, w * h);
-    for (int t = 0; t < h; ++t)
-      for (int s = 0; s < w; ++s)
-        texel_values(tile.value(), tile->s0() + s, tile->t0() + t, train, options.encoding, y.col(t * w + s).data());
-    y.colwise() -= b;
-    const MatrixXd c = G * y;
-    for (int t = 0; t < h; ++t)
-      for (int s = 0; s < w; ++s) {
-        const size_t at = static_cast<size_t>(T - 1 - (tile->t0() + t)) * S + static_cast<size_t>(tile->s0() + s);
-        for (int p = 0; p < P; ++p) coeff[static_cast<size_t>(p)][at] = static_cast<float>(c(p, t * w + s));
-      }
-    progress("coefficients", ++tiles_done, tiles);
-    return Status::ok();
-  }));
+  VDRIG_TRY(blocks.for_each(
+      0, "coefficients",
+      [&](int /*worker*/, const Eigen::Ref<const MatrixXf>& y, const std::vector<int>& s, const std::vector<int>& t) {
+        MatrixXf c = Gf * y;
+        c.colwise() -= Gb;
+        for (size_t j = 0; j < s.size(); ++j) {
+          const size_t at = static_cast<size_t>(T - 1 - t[j]) * S + static_cast<size_t>(s[j]);
+          for (int p = 0; p < P; ++p) coeff[static_cast<size_t>(p)][at] = c(p, static_cast<Eigen::Index>(j));
+        }
+      }));
   // 5. Coefficient planes: the full range of each (relight clips at the 99.5% quantile; a clipped texel is wrong
   // under every light, one step more of quantisation costs a fraction of a code), through the JPEG encoder.
   out.scale.resize(static_cast<size_t>(P));
@@ -354,6 +462,52 @@ Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOpt
     out.plane_jpeg.push_back(std::move(jpeg.value()));
   }
   return out;
+}
+
+}  // namespace
+
+Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOptions& options) {
+  VDRIG_TRY(check_rbf_options(options));
+  auto train = training_views(obs.views(), options);
+  if (!train) return train.error();
+  std::vector<Vec3d> lights;
+  {  // the lights: every texel of an RTI map sees view v from the same direction
+    auto tile = obs.read_tile(0, 0);
+    if (!tile) return tile.error();
+    Eigen::Vector3f rgb, dir;
+    for (int v : train.value()) {
+      tile->observation(tile->s0(), tile->t0(), v, &rgb, &dir);
+      lights.push_back(dir.cast<double>().normalized());
+    }
+  }
+  ObsMapBlocks blocks(obs, train.value(), options.encoding, worker_count(options), options);
+  return fit_rbf(blocks, obs.spec().texels_s, obs.spec().texels_t, std::move(lights), options);
+}
+
+Result<RbfBasis> fit_rbf_basis(const fs::path& stack, const RbfFitOptions& options) {
+  VDRIG_TRY(check_rbf_options(options));
+  if (options.encoding != DisplayEncoding::kCodes)
+    return invalid("--encoding applies to observation maps: a stack's photographs hold the codes themselves");
+  auto listed = list_stack(stack);
+  if (!listed) return listed.error();
+  auto train = training_views(static_cast<int>(listed->lights.size()), options);
+  if (!train) return train.error();
+  std::vector<Vec3d> lights;
+  for (int v : train.value()) lights.push_back(listed->lights[static_cast<size_t>(v)].direction.normalized());
+  // The size, from the images themselves (every one is opened, so a size that differs is refused here).
+  int S = 0, T = 0;
+  {
+    auto opened = StackRows::open(listed.value(), train.value(), Linearisation{}, std::nullopt);
+    if (!opened) return opened.error();
+    S = opened->width();
+    T = opened->height();
+  }
+  StackBlocks blocks(listed.value(), train.value(), worker_count(options), options);
+  auto basis = fit_rbf(blocks, S, T, std::move(lights), options);
+  if (basis)
+    log::get("rti")->info("rbf: fitted {} images of {}x{} from {}", basis->lights.size(), S, T,
+                          listed->lp_file.string());
+  return basis;
 }
 
 Status write_relight_rbf(const RbfBasis& b, const fs::path& out) {
@@ -466,6 +620,86 @@ Result<RbfBasis> read_relight_rbf(const fs::path& where) {
               bgr.at<cv::Vec3b>(y, x)[2 - static_cast<int>(ch)];
   }
   return b;
+}
+
+}  // namespace vdrig::rti
+
+namespace vdrig::rti {
+
+Result<fitting::ParameterMap> rbf_parameter_map(const RbfBasis& b, const fitting::ModelPtr& model) {
+  if (!model->linear_in_shared_directions())
+    return invalid(model->name() +
+                   " cannot hold an rbf basis here: a model linear in its light directions (hsh:N, "
+                   "ptm:rgb, sh-*:N) is fitted to it");
+  const int N = static_cast<int>(b.lights.size()), P = b.planes;
+  fitting::MapFitOptions fit_options;
+  fit_options.model = model;
+  VDRIG_TRY(model->check_options(fit_options));
+  auto op = model->fit_operator(b.lights, fit_options);
+  if (!op) return op.error();
+  const int K = op->coeff_count();
+  if (N < K)
+    return invalid(model->name() + " has " + std::to_string(K) + " coefficients per channel; the basis has only " +
+                   std::to_string(N) + " lights");
+  // The model's basis Y (N x K) from evaluate() of unit parameters, as stack_fit.cpp: the fit is c = F f, its
+  // prediction Y c.
+  MatrixXd Y(N, K);
+  {
+    std::vector<double> unit(static_cast<size_t>(3 * K), 0.0);
+    for (int k = 0; k < K; ++k) {
+      unit[static_cast<size_t>(k)] = 1.0;
+      for (int j = 0; j < N; ++j) Y(j, k) = model->evaluate(unit, b.lights[static_cast<size_t>(j)])[0];
+      unit[static_cast<size_t>(k)] = 0.0;
+    }
+  }
+  const MatrixXd& F = op->matrix();
+  // What the viewer shows at light j, channel k, is linear in the texel's [1, c_0 .. c_{P-1}]: B_k (N x (P + 1))
+  // with B_k(j, p) = Σ_i w_i(l_j) table(p, i, k). So the parameters are M_k [1; c] with M_k = F B_k, and the
+  // squared residual [1; c]^T R_k^T R_k [1; c] with R_k = (I - Y F) B_k.
+  std::vector<MatrixXd> M(3), Q(3);
+  for (int k = 0; k < 3; ++k) {
+    MatrixXd B(N, P + 1);
+    for (int j = 0; j < N; ++j) {
+      const std::vector<double> w = rbf_weights(b.lights, b.lights[static_cast<size_t>(j)], RbfWeights::kOpenLime);
+      for (int p = 0; p <= P; ++p) {
+        double v = 0.0;
+        for (int i = 0; i < N; ++i) v += w[static_cast<size_t>(i)] * b.table(p, i, k);
+        B(j, p) = v;
+      }
+    }
+    M[static_cast<size_t>(k)] = F * B;
+    const MatrixXd R = B - Y * M[static_cast<size_t>(k)];
+    Q[static_cast<size_t>(k)] = R.transpose() * R / N;
+  }
+  fitting::ParameterMap map(model, b.width, b.height, b.width, b.height);
+  VectorXd c(P + 1);
+  std::vector<double> parameters(static_cast<size_t>(3 * K));
+  std::vector<float> rms_codes;
+  rms_codes.reserve(static_cast<size_t>(b.width) * b.height);
+  for (int row = 0; row < b.height; ++row)
+    for (int s = 0; s < b.width; ++s) {
+      const size_t x = static_cast<size_t>(row) * b.width + static_cast<size_t>(s);
+      c[0] = 1.0;
+      for (int p = 0; p < P; ++p) {
+        const size_t pp = static_cast<size_t>(p);
+        c[p + 1] = (b.coefficient_bytes[pp][x] / 255.0 - b.bias[pp]) * b.scale[pp];
+      }
+      fitting::FitQuality q;
+      for (int k = 0; k < 3; ++k) {
+        const VectorXd params = M[static_cast<size_t>(k)] * c;  // parameters are channel by channel
+        for (int j = 0; j < K; ++j) parameters[static_cast<size_t>(k * K + j)] = params[j];
+        q.rms[k] = std::sqrt(std::max(0.0, c.dot(Q[static_cast<size_t>(k)] * c)));
+      }
+      q.samples = N;
+      const int t = b.height - 1 - row;  // plane rows from the top: texel row t is image row height - 1 - t
+      map.set_parameters(s, t, parameters);
+      map.set_quality(s, t, q);
+      rms_codes.push_back(static_cast<float>(255.0 * (q.rms[0] + q.rms[1] + q.rms[2]) / 3.0));
+    }
+  std::nth_element(rms_codes.begin(), rms_codes.begin() + static_cast<long>(rms_codes.size() / 2), rms_codes.end());
+  log::get("rti")->info("rbf basis ({} planes, {} lights) as {}: median RMS {:.3f} codes from the rbf at its lights", P,
+                        N, model->name(), rms_codes.empty() ? 0.0f : rms_codes[rms_codes.size() / 2]);
+  return map;
 }
 
 }  // namespace vdrig::rti

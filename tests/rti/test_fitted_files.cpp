@@ -96,12 +96,19 @@ TEST_F(FittedFiles, BadFilesGetTheReason) {
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
   EXPECT_NE(missing.error().message.find("plane_4.jpg"), std::string::npos) << missing.error().message;
+  fs::create_directories(dir_ / "bilinear");
+  std::ofstream(dir_ / "bilinear" / "info.json")
+      << R"({"width": 4, "height": 4, "type": "bilinear", "colorspace": "mrgb"})";
+  auto bilinear = read_fitted_file(dir_ / "bilinear");
+  ASSERT_FALSE(bilinear);
+  EXPECT_EQ(bilinear.error().code, ErrorCode::kUnsupported);
+  EXPECT_NE(bilinear.error().message.find("\"bilinear\""), std::string::npos);
+  // rbf folders are read (tests/rti/test_rbf.cpp); one without its lights, basis and planes is corrupt.
   fs::create_directories(dir_ / "rbf");
   std::ofstream(dir_ / "rbf" / "info.json") << R"({"width": 4, "height": 4, "type": "rbf", "colorspace": "mrgb"})";
   auto rbf = read_fitted_file(dir_ / "rbf");
   ASSERT_FALSE(rbf);
-  EXPECT_EQ(rbf.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(rbf.error().message.find("\"rbf\""), std::string::npos);
+  EXPECT_EQ(rbf.error().code, ErrorCode::kCorrupt);
   EXPECT_FALSE(is_fitted_file(dir_ / "stack.lp"));
 }
 

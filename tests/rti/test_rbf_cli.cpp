@@ -46,6 +46,16 @@ TEST(RtiRbfCli, ImportThenRbf) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
   r = vdrig("rti rbf " + d + "/missing.vdobs --out " + d + "/bad");
   EXPECT_NE(r.exit_code, 0) << r.out;
+
+  // Straight from the stack (its folder or its .lp), as `vdrig rti fit STACK`: no observation map on disk.
+  r = vdrig("rti rbf " + d + "/stack --out " + d + "/direct --planes 6 --hold-out 3,17");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("rbf over mrgb, 6 planes, 38 lights, 24x16 texels"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(dir / "direct" / "plane_1.jpg"));
+  r = vdrig("rti rbf " + d + "/stack/stack.lp --out " + d + "/bad --encoding srgb");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("photographs hold the codes"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
 }
 
 }  // namespace

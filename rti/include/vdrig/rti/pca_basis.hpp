@@ -32,6 +32,7 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/fitting/parameter_map.hpp"
 
 namespace vdrig::rti {
 
@@ -101,6 +102,10 @@ struct RbfFitOptions {
 /// viewer decodes. Errors: kInvalidArgument (planes, held-out views, fewer lights than planes + 1), the reader's
 /// kCorrupt/kIo.
 Result<RbfBasis> fit_rbf_basis(const fitting::ObsMapReader& obs, const RbfFitOptions& options);
+/// The same fit straight from a stack's photographs (its .lp, or a folder holding one), the codes being the display
+/// values (options.encoding must be kCodes), read a band of rows at a time as `vdrig rti fit STACK` reads them
+/// (stack_fit.hpp), twice: once for the PCA, once for the coefficients. Errors as fit_stack's, and as above.
+Result<RbfBasis> fit_rbf_basis(const std::filesystem::path& stack, const RbfFitOptions& options);
 
 /// Writes `basis` as a relight folder: info.json (type "rbf", colorspace "mrgb", lights, sigma, nplanes, basis,
 /// materials [{range, scale, bias}]) and plane_<j>.jpg (4:4:4). kIo/kNoSpace when writing fails.
@@ -110,5 +115,11 @@ Status write_relight_rbf(const RbfBasis& basis, const std::filesystem::path& out
 /// write_relight_rbf writes it, planes decoded by OpenCV's JPEG decoder. kNotFound, kCorrupt (malformed JSON,
 /// sizes that disagree), kUnsupported (another type or colour space).
 Result<RbfBasis> read_relight_rbf(const std::filesystem::path& folder);
+
+/// `basis` as a parameter map of `model` (linear in shared directions: hsh:N, ptm:rgb, sh-*:N; kInvalidArgument
+/// otherwise), for `vdrig view`, `render`, `compare` (vdrig has no rbf model): each texel's least-squares fit of what
+/// OpenLIME shows at the basis's own lights (render_rbf before the canvas's clamp; values in [0, 1] units). Lossy:
+/// rms.R/G/B hold each texel's RMS distance from that rendering at those lights, in [0, 1] units.
+Result<fitting::ParameterMap> rbf_parameter_map(const RbfBasis& basis, const fitting::ModelPtr& model);
 
 }  // namespace vdrig::rti
