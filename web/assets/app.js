@@ -132,7 +132,10 @@ async function loadFrame(session, view, bracket) {
   try {
     const q = `session=${encodeURIComponent(session)}&view=${view}&bracket=${bracket}`;
     const { status, body } = await getJson('/api/frame?' + q);
-    if (status === 200 && body.ok) {
+    if (status === 429) {
+      // Rate-limited: the newest frame is asked for again in a second, unless a newer one is wanted by then.
+      setTimeout(() => { if (!frameWanted && !frameBusy) loadFrame(session, view, bracket); }, 1000);
+    } else if (status === 200 && body.ok) {
       const img = $('thumbnail');
       img.src = 'data:image/png;base64,' + body.png_base64;
       img.width = body.thumb_width;
@@ -247,7 +250,19 @@ async function refreshSessions() {
       const link = document.createElement('a');
       link.href = '/files/' + encodeURIComponent(s.session) + '/manifest.json';
       link.textContent = 'manifest';
-      cell(tr, link);
+      const files = cell(tr, link);
+      // A complete session's results: the report `vdrig report S --out S/report.html` wrote, and its maps in WebGL2.
+      if (s.views_done >= s.views_total) {
+        for (const [text, href] of [['report', '/report/' + encodeURIComponent(s.session)],
+                                    ['viewer', '/viewer?session=' + encodeURIComponent(s.session)]]) {
+          const a = document.createElement('a');
+          a.href = href;
+          a.textContent = text;
+          a.target = '_blank';
+          a.rel = 'noopener';
+          files.append(' ', a);
+        }
+      }
       const resume = document.createElement('button');
       resume.textContent = 'Resume';
       resume.type = 'button';
@@ -298,7 +313,13 @@ function onEvent(ev) {
     drawHemisphere();
   }
   if (current.session && (current.session !== before || plan.session !== current.session)) loadPlan(current.session);
-  if (ev.event === 'state' && ev.state !== 'running') plan.current = -1, drawHemisphere();
+  if (ev.event === 'state' && ev.state !== 'running') {
+    plan.current = -1;
+    drawHemisphere();
+    // The session stopped: its last frame is the thumbnail, whatever frames were skipped on the way.
+    if (current.view !== undefined && current.bracket_index !== undefined)
+      loadFrame(current.session, current.view, current.bracket_index);
+  }
   scheduleLog();
   showState();
   showDrive();

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -79,6 +80,15 @@ std::string last_lines(const std::string& text, int n) {
   if (at > 0 && text[at - 1] == '\n') --at;
   for (int i = 0; i < n && at != std::string::npos && at > 0; ++i) at = text.rfind('\n', at - 1);
   return at == std::string::npos || at == 0 ? text : text.substr(at + 1);
+}
+
+/// A map's name as SESSION/maps/NAME.exr has it ("phong:1", "hsh:6"), or empty: 1..64 of [A-Za-z0-9:._-], not
+/// starting with a dot.
+bool valid_map_name(const std::string& name) {
+  if (name.size() > 64 || (!name.empty() && name[0] == '.')) return false;
+  for (const char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != ':' && c != '.' && c != '_' && c != '-') return false;
+  return true;
 }
 
 bool wildcard_address(const std::string& address) { return address == "0.0.0.0" || address == "::"; }
@@ -293,6 +303,67 @@ struct Server::Impl {
     send_error(res, late ? 504 : 502, capture::wire_code(e.code), e.message);
   }
 
+  /// The folder of a listed session, by its name only; kNotFound for another name or a linked folder.
+  Result<fs::path> listed_session_dir(const std::string& session) {
+    const Error missing = make_error(ErrorCode::kNotFound, "no such session");
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return missing;
+    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
+    if (!listing) return listing.error();
+    bool listed = false;
+    for (const auto& s : listing.value().value("sessions", json::array()))
+      if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
+    const fs::path dir = options.sessions_dir / session;
+    std::error_code ec;
+    if (!listed || !fs::is_directory(fs::symlink_status(dir, ec))) return missing;
+    return dir;
+  }
+
+  /// The WebGL2 viewer's scene of a finished session: its map's GLSL and parameters, camera and poses.
+  void serve_viewer_scene(const httplib::Request& req, httplib::Response& res) {
+    if (!options.viewer_scene)
+      return send_error(res, 501, "unsupported", "this vdrig is built without the post-capture modules");
+    const std::string map = req.get_param_value("map");
+    if (!valid_map_name(map)) return send_error(res, 400, "bad_request", "a map name is [A-Za-z0-9:._-]");
+    auto dir = listed_session_dir(req.get_param_value("session"));
+    if (!dir) return send_failure(res, dir.error());
+    auto scene = options.viewer_scene(dir.value(), map);
+    if (!scene) {
+      const bool missing = scene.error().code == ErrorCode::kNotFound;
+      return send_error(res, missing ? 404 : 500, capture::wire_code(scene.error().code), scene.error().message);
+    }
+    json j = std::move(scene.value().scene);
+    j["ok"] = true;
+    j["params_base64"] = base64(scene.value().params_f32);
+    send_json(res, 200, j);
+  }
+
+  void serve_viewer_photo(const httplib::Request& req, httplib::Response& res) {
+    if (!options.viewer_photo)
+      return send_error(res, 501, "unsupported", "this vdrig is built without the post-capture modules");
+    const int view = parse_index(req.get_param_value("view"));
+    if (view < 0) return send_error(res, 400, "bad_request", "view must be an index");
+    auto dir = listed_session_dir(req.get_param_value("session"));
+    if (!dir) return send_failure(res, dir.error());
+    auto png = options.viewer_photo(dir.value(), view, 1.0);
+    if (!png) {
+      const bool missing = png.error().code == ErrorCode::kNotFound;
+      return send_error(res, missing ? 404 : 500, capture::wire_code(png.error().code), png.error().message);
+    }
+    res.set_content(png.value(), "image/png");
+  }
+
+  /// A session's report (`vdrig report S --out S/report.html`): the page vdrig wrote, with its inline styles and
+  /// scripts, served sandboxed (an opaque origin: its scripts cannot use the console's cookie or API).
+  void serve_report(const std::string& session, httplib::Response& res) {
+    auto text = read_session_file(session, {"report.html"}, std::size_t{256} << 20);
+    if (!text) return send_failure(res, text.error());
+    res.headers.erase("Content-Security-Policy");  // the default one, replaced: a second would be enforced too
+    res.set_header("Content-Security-Policy",
+                   "sandbox allow-scripts; default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
+                   "img-src data:; font-src data:; frame-ancestors 'none'");
+    res.set_content(std::move(text).value(), "text/html; charset=utf-8");
+  }
+
   /// A session's manifest or journal, by session name and file name only (one of served_session_files()). `tail`
   /// keeps the journal's last lines only (the page's log).
   void serve_session_file(const std::string& session, const std::string& file, int tail, httplib::Response& res) {
@@ -393,6 +464,18 @@ struct Server::Impl {
       serve_session_file(req.matches[1], req.matches[2], tail, res);
     });
     http.Get("/api/frame", [this](const httplib::Request& req, httplib::Response& res) { serve_frame(req, res); });
+    http.Get("/api/viewer/scene",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_scene(req, res); });
+    http.Get("/api/viewer/photo",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_photo(req, res); });
+    http.Get(R"(/report/([^/]+))",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_report(req.matches[1], res); });
+    http.Get("/viewer", [this](const httplib::Request&, httplib::Response& res) {
+      res.set_content(std::string(asset("viewer.html")), "text/html; charset=utf-8");
+    });
+    http.Get("/static/viewer.js", [this](const httplib::Request&, httplib::Response& res) {
+      serve_asset(res, "viewer.js", "text/javascript; charset=utf-8");
+    });
     // The commands, each with the daemon's own fields: the daemon validates them and its error text is relayed.
     http.Post("/api/start", [this](const httplib::Request& req, httplib::Response& res) {
       auto fields = string_fields(req, res, {"session", "scheme", "bracket", "scene"});

@@ -110,9 +110,12 @@ try {
              mean: sum / (px.length / 4), min, max };
   });
   seen.thumbnailText = await text('#thumbnail-text');
-  const lastView = seen.thumbnail.view;
-  await page.waitForFunction((v) => document.getElementById('log-tail').textContent.includes(`view ${v} complete`),
-                             {}, lastView);
+  // The thumbnail ends on the session's last frame, and the journal's tail reaches that view's completion.
+  await page.waitForFunction(() => {
+    const v = document.getElementById('thumbnail').dataset.view;
+    return document.getElementById('log-tail').textContent.includes(`view ${v} complete`);
+  });
+  seen.thumbnail.view = await page.$eval('#thumbnail', (img) => Number(img.dataset.view));
   seen.logTail = await text('#log-tail');
   seen.drive = await text('#drive-text');
   seen.camera = await text('#camera-text');
