@@ -73,7 +73,8 @@ Status serve(const ServeArgs& a) {
 
 CommandRegistrar reg([](CLI::App& root) {
   auto a = std::make_shared<ServeArgs>();
-  auto* cmd = root.add_subcommand("serve", "web console for vdrigd: sessions, start/pause/resume/abort, live progress");
+  auto* cmd = root.add_subcommand(
+      "serve", "web console for vdrigd: sessions, start/pause/resume/abort, live progress, home/jog, results");
   cmd->add_option("--runtime-dir", a->runtime_dir, "folder of vdrigd.sock")->capture_default_str();
   cmd->add_option("--sessions-dir", a->sessions_dir, "vdrigd's sessions folder, whose session files the page links");
   cmd->add_option("--port", a->port, "TCP port (0: any free one)")->capture_default_str()->check(CLI::Range(0, 65535));

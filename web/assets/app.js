@@ -11,6 +11,7 @@ let listTimer = null;
 // The session whose manifest is drawn, its views, the ones captured, the stage's last known position.
 let plan = { session: '', views: [], done: new Set(), current: -1 };
 let position = null;
+const exposures = new Map();  // 'view/bracket' -> exposure_s, from the progress events
 let frameBusy = false, frameWanted = null, logTimer = null, logDirty = false, measured = null;
 
 async function getJson(path) {
@@ -145,7 +146,8 @@ async function loadFrame(session, view, bracket) {
       img.dataset.saturated = String(body.saturated_fraction);
       const sat = (100 * body.saturated_fraction).toFixed(body.saturated_fraction < 0.01 ? 2 : 1);
       $('thumbnail-text').textContent = `view ${body.view}, bracket frame ${body.bracket_index}` +
-        (current.exposure_s !== undefined ? ` (${Number(current.exposure_s).toPrecision(3)} s)` : '') +
+        (exposures.has(`${body.view}/${body.bracket_index}`)
+          ? ` (${Number(exposures.get(`${body.view}/${body.bracket_index}`)).toPrecision(3)} s)` : '') +
         `, ${body.width}×${body.height} ${body.bits}-bit, saturated ${sat}%`;
     }
   } finally {
@@ -309,7 +311,11 @@ function onEvent(ev) {
     if (ev.view_finished) scheduleList();
     if (ev.view_finished) plan.done.add(ev.view);
     plan.current = ev.view;
-    if (!ev.view_finished) loadFrame(ev.session, ev.view, ev.bracket_index);
+    if (!ev.view_finished) {
+      exposures.set(`${ev.view}/${ev.bracket_index}`, ev.exposure_s);
+      if (exposures.size > 256) exposures.delete(exposures.keys().next().value);
+      loadFrame(ev.session, ev.view, ev.bracket_index);
+    }
     drawHemisphere();
   }
   if (current.session && (current.session !== before || plan.session !== current.session)) loadPlan(current.session);
