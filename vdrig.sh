@@ -97,6 +97,32 @@ check_capture_build() {
   echo "capture build: vdrig and vdrigd run, no OpenGL, GLFW, Ceres or OpenCV imgcodecs linked"
 }
 
+# The web console's screenshots (docs/web.md, README): vdrigd on the simulated rig and `vdrig serve` on loopback, in a
+# temporary folder, shot by tests/web/browser/screenshots.mjs in headless Chromium; the viewer's shots use a copy of
+# the demo's session (out/demo/session, fitted by the report screenshots before) when there is one.
+web_screenshots() {  # $1 = vdrig, $2 = vdrigd
+  local work daemon server url showcase=""
+  work=$(mktemp -d)
+  mkdir -p "$work/run" "$work/sessions"
+  if [ -f out/demo/session/maps/phong:1.exr ] && [ -f out/demo/session/calib/views.json ]; then
+    cp -r out/demo/session "$work/sessions/demo"
+    showcase="demo 60"  # the session and a captured view of its middle ring
+  fi
+  "$2" --runtime-dir "$work/run" --sessions-dir "$work/sessions" --reserve-mb 0 --log-level warn &
+  daemon=$!
+  "$1" serve --runtime-dir "$work/run" --sessions-dir "$work/sessions" --port 0 >"$work/url" 2>/dev/null &
+  server=$!
+  for _ in $(seq 100); do [ -s "$work/url" ] && break; sleep 0.1; done
+  url=$(head -n 1 "$work/url")
+  (cd tests/web/browser && [ -d node_modules/puppeteer-core ] || npm ci --no-audit --no-fund)
+  local status=0
+  node tests/web/browser/screenshots.mjs "$url" /usr/bin/chromium "$work/profile" docs/img $showcase || status=$?  # (unquoted: two words or none)
+  kill "$server" "$daemon"
+  wait "$server" "$daemon" || true
+  rm -rf "$work"
+  return $status
+}
+
 case "$verb" in
   demo)
     # Only the vdrig executable: the demo runs nothing else, and the 82 test programs and 13 benchmarks of a full
@@ -152,6 +178,7 @@ case "$verb" in
     configure_and_build release
     bash scripts/screenshots.sh build/release/apps/vdrig docs/img
     VDRIG=build/release/apps/vdrig bash scripts/report_screenshots.sh
+    web_screenshots build/release/apps/vdrig build/release/apps/vdrigd/vdrigd
     ;;
   format-check)
     setup

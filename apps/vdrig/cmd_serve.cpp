@@ -10,6 +10,11 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/web/server.hpp"
+#ifdef VDRIG_SERVE_VIEWER  // built with the post-capture modules: the page's WebGL2 viewer of finished sessions
+#include "vdrig/core/image_codec.hpp"
+#include "vdrig/pipeline/web_scene.hpp"
+#include "vdrig/viewer/surface_renderer.hpp"
+#endif
 
 namespace vdrig::app {
 namespace {
@@ -27,6 +32,20 @@ Status serve(const ServeArgs& a) {
   options.sessions_dir = a.sessions_dir;
   options.bind_address = a.bind;
   options.port = a.port;
+#ifdef VDRIG_SERVE_VIEWER
+  options.viewer_scene = [](const std::filesystem::path& dir, const std::string& map) -> Result<web::ViewerScene> {
+    auto scene = pipeline::web_scene(dir, map);
+    if (!scene) return scene.error();
+    const auto& p = scene->params;
+    return web::ViewerScene{std::move(scene->scene),
+                            std::string(reinterpret_cast<const char*>(p.data()), p.size() * sizeof(float))};
+  };
+  options.viewer_photo = [](const std::filesystem::path& dir, int view, double gamma) -> Result<std::string> {
+    auto radiance = pipeline::web_photo(dir, view);
+    if (!radiance) return radiance.error();
+    return encode_png(viewer::tone_map(radiance.value(), gamma));
+  };
+#endif
   // SIGINT and SIGTERM are taken by a thread of their own (sigwait), blocked before any server thread starts so
   // that every thread inherits the mask: stopping the server is not async-signal-safe.
   sigset_t signals;
@@ -54,7 +73,8 @@ Status serve(const ServeArgs& a) {
 
 CommandRegistrar reg([](CLI::App& root) {
   auto a = std::make_shared<ServeArgs>();
-  auto* cmd = root.add_subcommand("serve", "web console for vdrigd: sessions, start/pause/resume/abort, live progress");
+  auto* cmd = root.add_subcommand(
+      "serve", "web console for vdrigd: sessions, start/pause/resume/abort, live progress, home/jog, results");
   cmd->add_option("--runtime-dir", a->runtime_dir, "folder of vdrigd.sock")->capture_default_str();
   cmd->add_option("--sessions-dir", a->sessions_dir, "vdrigd's sessions folder, whose session files the page links");
   cmd->add_option("--port", a->port, "TCP port (0: any free one)")->capture_default_str()->check(CLI::Range(0, 65535));

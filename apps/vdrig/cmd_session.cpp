@@ -1,19 +1,14 @@
 // vdrig session start|status|pause|resume|abort|list: a client of vdrigd (docs/protocol.md); vdrig session check:
 // fsck for a session folder (capture/session_check.hpp), run locally.
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "commands.hpp"
 #include "progress.hpp"
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/capture/daemon_client.hpp"
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/capture/session_check.hpp"
 
@@ -30,76 +25,6 @@ struct SessionArgs {
   bool follow = false;
 };
 
-class Client {
- public:
-  ~Client() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Status connect(const std::string& runtime_dir) {
-    const std::string path = runtime_dir + "/vdrigd.sock";
-    sockaddr_un addr{};
-    if (path.size() >= sizeof addr.sun_path) return make_error(ErrorCode::kInvalidArgument, "socket path too long");
-    addr.sun_family = AF_UNIX;
-    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0)
-      return make_error(ErrorCode::kDisconnected, "cannot reach vdrigd at " + path + ": " + std::strerror(errno));
-    return Status::ok();
-  }
-  Result<json> read_message() {
-    while (true) {
-      const size_t pos = buf_.find('\n');
-      if (pos != std::string::npos) {
-        json j = json::parse(buf_.substr(0, pos), nullptr, false);
-        buf_.erase(0, pos + 1);
-        if (j.is_discarded()) return make_error(ErrorCode::kCorrupt, "daemon sent invalid JSON");
-        return j;
-      }
-      char tmp[4096];
-      const ssize_t n = ::recv(fd_, tmp, sizeof tmp, 0);
-      if (n <= 0) return make_error(ErrorCode::kDisconnected, "daemon closed the connection");
-      buf_.append(tmp, static_cast<size_t>(n));
-    }
-  }
-  /// Sends a request and returns its reply (events that arrive first are skipped).
-  Result<json> request(const json& req) {
-    const std::string line = req.dump() + "\n";
-    if (::send(fd_, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
-      // A daemon refusing this peer (its uid, too many clients) writes the reason and closes at once, possibly
-      // before this send: the reason is still there to read.
-      auto m = read_message();
-      if (m && !m->contains("event") && !m->value("ok", false)) return reply_error(m.value());
-      return make_error(ErrorCode::kDisconnected, "send to daemon failed");
-    }
-    while (true) {
-      auto m = read_message();
-      if (!m) return m;
-      if (m->contains("event")) continue;
-      if (!m->value("ok", false)) return reply_error(m.value());
-      return m;
-    }
-  }
-
- private:
-  /// The daemon's error reply as an Error: a refused or dropped connection (docs/protocol.md, "Connections") as
-  /// kDisconnected saying so, a failure the daemon reports by ErrorCode (capture::wire_code) as that ErrorCode, the
-  /// protocol's own refusals of a request (busy, bad_request, ...) as before.
-  static Error reply_error(const json& reply) {
-    const std::string code = reply.value("code", "");
-    const std::string message = reply.value("error", std::string("request failed"));
-    const bool too_many = code == "busy" && message.rfind("too many clients", 0) == 0;
-    if (too_many || code == "permission_denied" || code == "idle_timeout")
-      return make_error(ErrorCode::kDisconnected, "vdrigd refused the connection: " + message);
-    // Every ErrorCode, in order, until wire_code's fallback "unknown" (past the last one).
-    for (int c = 0; std::string(capture::wire_code(static_cast<ErrorCode>(c))) != "unknown"; ++c)
-      if (code == capture::wire_code(static_cast<ErrorCode>(c))) return make_error(static_cast<ErrorCode>(c), message);
-    return make_error(ErrorCode::kDevice, message);
-  }
-
-  int fd_ = -1;
-  std::string buf_;
-};
-
 void print_status(const json& s) {
   std::printf("%s", s.value("state", "?").c_str());
   if (s.contains("session"))
@@ -110,7 +35,7 @@ void print_status(const json& s) {
 }
 
 /// Live progress line until the session leaves "running".
-Status follow(Client& c) {
+Status follow(capture::DaemonClient& c) {
   ProgressLine progress;
   while (true) {
     auto m = c.read_message();
@@ -131,10 +56,10 @@ Status follow(Client& c) {
 }
 
 Status run(const std::string& verb, const SessionArgs& a) {
-  Client c;
-  VDRIG_TRY(c.connect(a.runtime_dir));
+  capture::DaemonClient c;
+  VDRIG_TRY(c.connect(std::filesystem::path(a.runtime_dir) / "vdrigd.sock"));
   if (verb == "start" || verb == "resume" || (verb == "status" && a.follow)) {
-    if (a.follow || verb == "start") VDRIG_TRY(c.request({{"cmd", "subscribe"}}).status());
+    if (a.follow || verb == "start") VDRIG_TRY(c.call({{"cmd", "subscribe"}}).status());
   }
   json req = {{"cmd", verb == "list" ? "list-sessions" : verb}};
   if (verb == "start") {
@@ -145,7 +70,7 @@ Status run(const std::string& verb, const SessionArgs& a) {
   } else if (verb == "resume" && !a.name.empty()) {
     req["session"] = a.name;
   }
-  auto reply = c.request(req);
+  auto reply = c.call(req);
   if (!reply) return reply.status();
   if (verb == "list") {
     for (const auto& s : reply.value()["sessions"])

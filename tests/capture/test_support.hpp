@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "vdrig/capture/daemon_client.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -56,54 +57,23 @@ inline Result<rig::Rig> make_sim_rig(const nlohmann::json& config) {
   return registry.make_rig(config);
 }
 
-/// Connects to a Unix stream socket; -1 (errno set) on failure.
+// The socket helpers below are the test-friendly face of vdrig/capture/daemon_client.hpp (the one client of
+// vdrigd that `vdrig session` and `vdrig serve` use too): raw descriptors the tests own, so that they can also send
+// what no well-behaved client sends.
+
+/// Connects to a Unix stream socket; -1 on failure.
 inline int connect_unix(const std::filesystem::path& socket_path) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return -1;
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  const std::string path = socket_path.string();
-  if (path.size() >= sizeof addr.sun_path) {
-    ::close(fd);
-    errno = ENAMETOOLONG;
-    return -1;
-  }
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    const int err = errno;
-    ::close(fd);
-    errno = err;
-    return -1;
-  }
-  return fd;
+  auto fd = ::vdrig::capture::connect_unix(socket_path);
+  return fd ? fd.value() : -1;
 }
 
-inline bool send_all(int fd, const std::string& bytes) {
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL);
-    if (n <= 0) return false;
-    done += static_cast<size_t>(n);
-  }
-  return true;
-}
+inline bool send_all(int fd, const std::string& bytes) { return ::vdrig::capture::send_all(fd, bytes).is_ok(); }
 
 /// Reads one line; nullopt when the connection closed (or nothing came within the timeout).
 inline std::optional<std::string> read_line(int fd, std::string& buffer, int timeout_ms = 5000) {
-  while (true) {
-    const size_t pos = buffer.find('\n');
-    if (pos != std::string::npos) {
-      std::string line = buffer.substr(0, pos);
-      buffer.erase(0, pos + 1);
-      return line;
-    }
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, timeout_ms) <= 0) return std::nullopt;
-    char buf[4096];
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n <= 0) return std::nullopt;
-    buffer.append(buf, static_cast<size_t>(n));
-  }
+  auto line = ::vdrig::capture::read_line(fd, buffer, timeout_ms);
+  if (!line) return std::nullopt;
+  return std::move(line).value();
 }
 
 /// Sends a request and returns its reply, skipping pushed events; {"closed": true} when the connection ended and

@@ -28,7 +28,8 @@ TEST(WebBrowser, StartPauseResumeFromTheFormWithLiveProgress) {
                                              chromium, (root.path() / "profile").string(), session, scheme},
                                             {.timeout_s = 90});
   ASSERT_EQ(run.exit_code, 0) << run.out << "\n" << run.err;
-  const std::string last_line = run.out.substr(run.out.rfind('{'));
+  const std::string out = run.out.substr(0, run.out.find_last_not_of('\n') + 1);
+  const std::string last_line = out.substr(out.rfind('\n') + 1);
   const json seen = json::parse(last_line, nullptr, false);
   ASSERT_FALSE(seen.is_discarded()) << run.out;
   std::cout << "browser saw: " << seen.dump() << "\n";
@@ -47,6 +48,29 @@ TEST(WebBrowser, StartPauseResumeFromTheFormWithLiveProgress) {
   EXPECT_EQ(seen["final"], json::array({total, total}));
   EXPECT_EQ(seen.value("row", ""), std::to_string(total) + "/" + std::to_string(total));
   EXPECT_TRUE(seen["consoleErrors"].empty()) << seen["consoleErrors"].dump();
+
+  // The live pieces. The hemisphere: every planned view drawn filled (a dot is ~30 green pixels).
+  EXPECT_EQ(seen["hemisphere"].value("done", 0), total);
+  EXPECT_EQ(seen["hemisphere"].value("views", 0), total);
+  EXPECT_GE(seen["hemisphere"].value("greenPixels", 0), 15 * total) << seen["hemisphere"].dump();
+  // The thumbnail: the last frame of the last view, at most 240 wide with the frame's aspect (160x120), not blank.
+  const json& t = seen["thumbnail"];
+  EXPECT_EQ(t.value("width", 0), 160) << t.dump();
+  EXPECT_EQ(t.value("height", 0), 120) << t.dump();
+  EXPECT_GE(t.value("view", -1), 0);
+  EXPECT_EQ(t.value("bracket", -1), 1) << "the fixed bracket's second frame is the last";
+  EXPECT_GT(t.value("max", 0.0) - t.value("min", 0.0), 20.0) << "a picture, not a flat fill: " << t.dump();
+  EXPECT_GE(t.value("saturated", -1.0), 0.0);
+  EXPECT_LE(t.value("saturated", 2.0), 1.0);
+  EXPECT_NE(seen.value("thumbnailText", "").find("saturated"), std::string::npos) << seen.value("thumbnailText", "");
+  // The journal's tail reaches the session's last view, and the drive line carries the measured position.
+  const std::string log = seen.value("logTail", "");
+  EXPECT_NE(log.find("view " + std::to_string(t.value("view", -1)) + " complete"), std::string::npos) << log;
+  EXPECT_NE(log.find("frame 1: 0.0200 s"), std::string::npos) << log;
+  EXPECT_NE(seen.value("drive", "").find("measured pan"), std::string::npos) << seen.value("drive", "");
+  // Home and a 7.5 degree pan jog, as the daemon reports the stage's position.
+  EXPECT_EQ(seen.value("homed", ""), "pan 0.00°, tilt 0.00°");
+  EXPECT_EQ(seen.value("jogged", ""), "pan 7.50°, tilt 0.00°");
   EXPECT_LE(seen.value("expectedRefusals", 0), 1) << "the refused start's 400, logged by the browser";
 
   // What the page did, as the daemon has it: the session is complete.

@@ -4,6 +4,7 @@
 // while another client is still served.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <vector>
 
@@ -126,6 +127,54 @@ TEST(WebSecurity, FilesAreServedBySessionNameOnly) {
     EXPECT_EQ(r.status, 404) << path << ": " << r.body;
     EXPECT_EQ(r.body.find("secret"), std::string::npos) << path;
   }
+}
+
+TEST(WebSecurity, FramesAndTheStageTakeOnlyNamesAndNumbers) {
+  vdrig::test::TempDir root("web_frames");
+  Console c(root.path());
+  ASSERT_TRUE(c.started()) << c.started().describe();
+  const std::string token = with_token(c);
+  const std::string post_headers = token + "Origin: " + c.origin() + "\r\n";
+  ASSERT_EQ(http(c.port(), request("POST", "/api/start", c.host(), post_headers,
+                                   R"({"session":"s1","scheme":"spiral:4:1@80","bracket":"fixed:0.01"})"))
+                .status,
+            200);
+  // The first frame, once the journal has it: the thumbnail of a 160x120 frame, as a PNG.
+  HttpReply frame;
+  for (int i = 0; i < 100 && frame.status != 200; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    frame = http(c.port(), request("GET", "/api/frame?session=s1&view=0&bracket=0", c.host(), token));
+  }
+  ASSERT_EQ(frame.status, 200) << frame.body;
+  const json f = json::parse(frame.body);
+  EXPECT_EQ(f.value("width", 0), 160);
+  EXPECT_EQ(f.value("thumb_width", 0), 160);
+  EXPECT_EQ(f.value("png_base64", "").rfind("iVBORw0KGgo", 0), 0u) << "a PNG's signature in base64";
+  fs::create_directory_symlink(root.path() / "sessions" / "s1", root.path() / "sessions" / "linked");
+  for (const std::string query :
+       {"session=..&view=0&bracket=0", "session=..%2fsessions%2fs1&view=0&bracket=0", "session=linked&view=0&bracket=0",
+        "session=nosuch&view=0&bracket=0", "session=s1&view=9999&bracket=0", "session=%2fetc&view=0&bracket=0"}) {
+    const HttpReply r = http(c.port(), request("GET", "/api/frame?" + query, c.host(), token));
+    EXPECT_EQ(r.status, 404) << query << ": " << r.body;
+  }
+  for (const std::string query : {"session=s1&view=-1&bracket=0", "session=s1&view=0x1&bracket=0", "session=s1&view=0",
+                                  "session=s1&view=1234567&bracket=0"}) {
+    const HttpReply r = http(c.port(), request("GET", "/api/frame?" + query, c.host(), token));
+    EXPECT_EQ(r.status, 400) << query << ": " << r.body;
+  }
+  // The journal's tail: its last lines only.
+  const HttpReply tail = http(c.port(), request("GET", "/files/s1/journal.jsonl?tail=2", c.host(), token));
+  ASSERT_EQ(tail.status, 200);
+  EXPECT_EQ(std::count(tail.body.begin(), tail.body.end(), '\n'), 2) << tail.body;
+  // move takes exactly two finite numbers; anything else is refused before the daemon sees it.
+  for (const std::string body :
+       {R"({"pan_deg":"10","tilt_deg":0})", R"({"pan_deg":10})", R"({"pan_deg":10,"tilt_deg":0,"rig":{}})", R"([10,0])",
+        R"({"pan_deg":1e999,"tilt_deg":0})"}) {
+    const HttpReply r = http(c.port(), request("POST", "/api/move", c.host(), post_headers, body));
+    EXPECT_EQ(r.status, 400) << body << ": " << r.body;
+  }
+  // A move without the token header is refused like every state-changing request.
+  EXPECT_EQ(http(c.port(), request("POST", "/api/move", c.host(), token, R"({"pan_deg":1,"tilt_deg":0})")).status, 403);
 }
 
 TEST(WebSecurity, ABodyAboveTheLimitIs413) {

@@ -46,6 +46,10 @@ TEST(VdrigServe, PrintsItsUrlWithATokenFirstAndStopsOnSigterm) {
   EXPECT_EQ(http(port, request("GET", "/", host)).status, 401);
   // No daemon on that runtime folder: reported, not hung.
   EXPECT_EQ(http(port, request("GET", "/api/status", host, "X-Vdrig-Token: " + token + "\r\n")).status, 502);
+  // The viewer of finished sessions is wired in (this build has the post-capture modules; 501 when it is not): the
+  // request gets as far as looking for the session, and there is no sessions folder here.
+  EXPECT_EQ(http(port, request("GET", "/api/viewer/scene?session=s", host, "X-Vdrig-Token: " + token + "\r\n")).status,
+            404);
 
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
   int status = 0;

@@ -101,8 +101,9 @@ void main() {
 }
 )";
 
-/// GLSL of the parameter buffer, its loader and `vec3 model(ivec2 t, vec3 v)` for the map's model
-/// (ReflectanceModel::glsl), reading parameter i from the component of g_params that holds its map channel.
+}  // namespace
+
+// Parameter i is read from the component of g_params that holds its map channel.
 std::string model_glsl(const fitting::ParameterMap& map) {
   int layers = 1;
   for (int i = 0; i < map.model().parameter_count(); ++i) layers = std::max(layers, map.parameter_channel(i) / 4 + 1);
@@ -113,8 +114,6 @@ std::string model_glsl(const fitting::ParameterMap& map) {
            return std::string("g_params[") + std::to_string(c / 4) + "]." + "xyzw"[c % 4];
          });
 }
-
-}  // namespace
 
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
   const std::string model = model_glsl(map);

@@ -1,96 +1,18 @@
 #include "daemon_link.hpp"
 
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 
+#include "vdrig/capture/daemon_client.hpp"
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::web {
 namespace fs = std::filesystem;
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
-
-namespace {
-
-/// A connected socket to the daemon, closed with the object.
-class Connection {
- public:
-  ~Connection() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Status open(const fs::path& socket_path) {
-    const std::string path = socket_path.string();
-    sockaddr_un addr{};
-    if (path.size() >= sizeof addr.sun_path) return make_error(ErrorCode::kInvalidArgument, "socket path too long");
-    addr.sun_family = AF_UNIX;
-    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0)
-      return make_error(ErrorCode::kDisconnected, "cannot reach vdrigd at " + path + ": " + std::strerror(errno));
-    return Status::ok();
-  }
-  bool send_line(const json& j) {
-    const std::string line = j.dump() + "\n";
-    size_t done = 0;
-    while (done < line.size()) {
-      const ssize_t n = ::send(fd_, line.data() + done, line.size() - done, MSG_NOSIGNAL);
-      if (n <= 0) return false;
-      done += static_cast<size_t>(n);
-    }
-    return true;
-  }
-  /// The next line: kTimeout when none came within `wait_ms`, kDisconnected when the daemon closed.
-  Result<std::string> read_line(int wait_ms) {
-    while (true) {
-      const size_t pos = buf_.find('\n');
-      if (pos != std::string::npos) {
-        std::string line = buf_.substr(0, pos);
-        buf_.erase(0, pos + 1);
-        return line;
-      }
-      pollfd p{fd_, POLLIN, 0};
-      const int ready = ::poll(&p, 1, wait_ms);
-      if (ready == 0) return make_error(ErrorCode::kTimeout, "vdrigd did not answer in time");
-      if (ready < 0 && errno == EINTR) continue;
-      char tmp[4096];
-      const ssize_t n = ready < 0 ? -1 : ::recv(fd_, tmp, sizeof tmp, 0);
-      if (n <= 0) return make_error(ErrorCode::kDisconnected, "vdrigd closed the connection");
-      buf_.append(tmp, static_cast<size_t>(n));
-    }
-  }
-
- private:
-  int fd_ = -1;
-  std::string buf_;
-};
-
-}  // namespace
 
 Result<json> daemon_request(const fs::path& socket_path, const json& request, double timeout_s) {
-  Connection c;
-  VDRIG_TRY(c.open(socket_path));
-  const bool sent = c.send_line(request);
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (true) {
-    // A daemon refusing this peer (its uid, too many clients) writes the reason and closes, maybe before the send:
-    // the reason is still there to read, so a failed send reads on.
-    const int left_ms = static_cast<int>(
-        std::max<int64_t>(0, std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count()));
-    auto line = c.read_line(left_ms);
-    if (!line) {
-      if (sent) return line.error();
-      return make_error(ErrorCode::kDisconnected, "send to vdrigd failed");
-    }
-    json reply = json::parse(line.value(), nullptr, false);
-    if (reply.is_discarded() || !reply.is_object()) return make_error(ErrorCode::kCorrupt, "vdrigd sent invalid JSON");
-    if (!reply.contains("event")) return reply;
-  }
+  capture::DaemonClient c;
+  VDRIG_TRY(c.connect(socket_path));
+  return c.request(request, static_cast<int>(timeout_s * 1000));
 }
 
 void EventQueue::push(const std::string& line) {
@@ -187,9 +109,9 @@ void EventRelay::loop() {
     return stopping_;
   };
   while (!stopping()) {
-    Connection c;
-    Status linked = c.open(socket_path_);
-    if (linked && !c.send_line({{"cmd", "subscribe"}})) linked = make_error(ErrorCode::kDisconnected, "send failed");
+    capture::DaemonClient c;
+    Status linked = c.connect(socket_path_);
+    if (linked) linked = c.send({{"cmd", "subscribe"}});
     while (linked && !stopping()) {
       auto line = c.read_line(200);  // short, so that stop() is seen soon
       if (!line) {

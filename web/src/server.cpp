@@ -5,9 +5,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <optional>
 #include <set>
@@ -16,6 +19,7 @@
 #include "assets.hpp"
 #include "daemon_link.hpp"
 #include "guard.hpp"
+#include "thumbnail.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/log.hpp"
@@ -57,6 +61,34 @@ std::string_view asset(std::string_view name) {
   for (const Asset& a : assets())
     if (a.name == name) return a.text;
   return {};
+}
+
+/// A non-negative decimal index of at most 6 digits, else -1.
+int parse_index(const std::string& text) {
+  if (text.empty() || text.size() > 6) return -1;
+  int v = 0;
+  for (const char c : text) {
+    if (c < '0' || c > '9') return -1;
+    v = v * 10 + (c - '0');
+  }
+  return v;
+}
+
+/// The last `n` lines of `text` (a final newline does not count as a line of its own).
+std::string last_lines(const std::string& text, int n) {
+  std::size_t at = text.size();
+  if (at > 0 && text[at - 1] == '\n') --at;
+  for (int i = 0; i < n && at != std::string::npos && at > 0; ++i) at = text.rfind('\n', at - 1);
+  return at == std::string::npos || at == 0 ? text : text.substr(at + 1);
+}
+
+/// A map's name as SESSION/maps/NAME.exr has it ("phong:1", "hsh:6"), or empty: 1..64 of [A-Za-z0-9:._-], not
+/// starting with a dot.
+bool valid_map_name(const std::string& name) {
+  if (name.size() > 64 || (!name.empty() && name[0] == '.')) return false;
+  for (const char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != ':' && c != '.' && c != '_' && c != '-') return false;
+  return true;
 }
 
 bool wildcard_address(const std::string& address) { return address == "0.0.0.0" || address == "::"; }
@@ -186,6 +218,30 @@ struct Server::Impl {
     return out;
   }
 
+  /// The JSON object body of a POST with exactly `fields`, each a finite number; nullopt (and a 400 sent) otherwise.
+  std::optional<json> number_fields(const httplib::Request& req, httplib::Response& res,
+                                    const std::vector<std::string>& fields) {
+    const json body = json::parse(req.body, nullptr, false);
+    if (body.is_discarded() || !body.is_object()) {
+      send_error(res, 400, "bad_request", "the body must be a JSON object");
+      return std::nullopt;
+    }
+    for (const auto& [key, value] : body.items())
+      if (std::find(fields.begin(), fields.end(), key) == fields.end()) {
+        send_error(res, 400, "bad_request", "unknown field " + key);
+        return std::nullopt;
+      }
+    json out = json::object();
+    for (const auto& f : fields) {
+      if (!body.contains(f) || !body[f].is_number() || !std::isfinite(body[f].get<double>())) {
+        send_error(res, 400, "bad_request", "field " + f + " must be a number");
+        return std::nullopt;
+      }
+      out[f] = body[f].get<double>();
+    }
+    return out;
+  }
+
   void serve_asset(httplib::Response& res, std::string_view name, const std::string& type) {
     res.set_content(std::string(asset(name)), type);
   }
@@ -204,34 +260,30 @@ struct Server::Impl {
     res.set_content(page, "text/html; charset=utf-8");
   }
 
-  /// A session's file, by session name and file name only: the name must be a valid session name and one the
-  /// daemon lists, the file one of served_session_files(); the path is built here, never taken from the request,
-  /// and a link at either step is not followed.
-  void serve_session_file(const std::string& session, const std::string& file, httplib::Response& res) {
-    if (options.sessions_dir.empty() || !capture::valid_session_name(session) || !served_session_files().count(file)) {
-      send_error(res, 404, "not_found", "no such file");
-      return;
-    }
+  /// The bytes of a file of a listed session: `parts` are fixed names built here (never taken from the request), opened
+  /// one step at a time from the sessions folder without following a link. kNotFound for anything else, so that a
+  /// request cannot tell a missing file from a refused one; the daemon's failure when it cannot list the sessions.
+  Result<std::string> read_session_file(const std::string& session, const std::vector<std::string>& parts,
+                                        std::size_t max_bytes = std::size_t{64} << 20) {
+    const Error missing = make_error(ErrorCode::kNotFound, "no such file");
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return missing;
     auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
-    if (!listing) {
-      send_error(res, 502, capture::wire_code(listing.error().code), listing.error().message);
-      return;
-    }
+    if (!listing) return listing.error();
     bool listed = false;
     for (const auto& s : listing.value().value("sessions", json::array()))
       if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
-    if (!listed) {
-      send_error(res, 404, "not_found", "no such file");
-      return;
+    if (!listed) return missing;
+    int fd = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    for (std::size_t i = 0; i < parts.size() && fd >= 0; ++i) {
+      const int flags = O_RDONLY | O_NOFOLLOW | O_CLOEXEC | (i + 1 < parts.size() ? O_DIRECTORY : 0);
+      const int next = ::openat(fd, parts[i].c_str(), flags);
+      ::close(fd);
+      fd = next;
     }
-    const int dir = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-    const int fd = dir < 0 ? -1 : ::openat(dir, file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-    if (dir >= 0) ::close(dir);
     struct stat st {};
-    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size > (64 << 20)) {
+    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || static_cast<std::size_t>(st.st_size) > max_bytes) {
       if (fd >= 0) ::close(fd);
-      send_error(res, 404, "not_found", "no such file");
-      return;
+      return missing;
     }
     std::string text(static_cast<std::size_t>(st.st_size), '\0');
     std::size_t done = 0;
@@ -242,7 +294,106 @@ struct Server::Impl {
     }
     ::close(fd);
     text.resize(done);
-    res.set_content(text, file.ends_with(".json") ? "application/json" : "text/plain; charset=utf-8");
+    return text;
+  }
+
+  void send_failure(httplib::Response& res, const Error& e) {
+    if (e.code == ErrorCode::kNotFound) return send_error(res, 404, "not_found", e.message);
+    const bool late = e.code == ErrorCode::kTimeout;
+    send_error(res, late ? 504 : 502, capture::wire_code(e.code), e.message);
+  }
+
+  /// The folder of a listed session, by its name only; kNotFound for another name or a linked folder.
+  Result<fs::path> listed_session_dir(const std::string& session) {
+    const Error missing = make_error(ErrorCode::kNotFound, "no such session");
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return missing;
+    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
+    if (!listing) return listing.error();
+    bool listed = false;
+    for (const auto& s : listing.value().value("sessions", json::array()))
+      if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
+    const fs::path dir = options.sessions_dir / session;
+    std::error_code ec;
+    if (!listed || !fs::is_directory(fs::symlink_status(dir, ec))) return missing;
+    return dir;
+  }
+
+  /// The WebGL2 viewer's scene of a finished session: its map's GLSL and parameters, camera and poses.
+  void serve_viewer_scene(const httplib::Request& req, httplib::Response& res) {
+    if (!options.viewer_scene)
+      return send_error(res, 501, "unsupported", "this vdrig is built without the post-capture modules");
+    const std::string map = req.get_param_value("map");
+    if (!valid_map_name(map)) return send_error(res, 400, "bad_request", "a map name is [A-Za-z0-9:._-]");
+    auto dir = listed_session_dir(req.get_param_value("session"));
+    if (!dir) return send_failure(res, dir.error());
+    auto scene = options.viewer_scene(dir.value(), map);
+    if (!scene) {
+      const bool missing = scene.error().code == ErrorCode::kNotFound;
+      return send_error(res, missing ? 404 : 500, capture::wire_code(scene.error().code), scene.error().message);
+    }
+    json j = std::move(scene.value().scene);
+    j["ok"] = true;
+    j["params_base64"] = base64(scene.value().params_f32);
+    send_json(res, 200, j);
+  }
+
+  void serve_viewer_photo(const httplib::Request& req, httplib::Response& res) {
+    if (!options.viewer_photo)
+      return send_error(res, 501, "unsupported", "this vdrig is built without the post-capture modules");
+    const int view = parse_index(req.get_param_value("view"));
+    if (view < 0) return send_error(res, 400, "bad_request", "view must be an index");
+    auto dir = listed_session_dir(req.get_param_value("session"));
+    if (!dir) return send_failure(res, dir.error());
+    auto png = options.viewer_photo(dir.value(), view, 1.0);
+    if (!png) {
+      const bool missing = png.error().code == ErrorCode::kNotFound;
+      return send_error(res, missing ? 404 : 500, capture::wire_code(png.error().code), png.error().message);
+    }
+    res.set_content(png.value(), "image/png");
+  }
+
+  /// A session's report (`vdrig report S --out S/report.html`): the page vdrig wrote, with its inline styles and
+  /// scripts, served sandboxed (an opaque origin: its scripts cannot use the console's cookie or API).
+  void serve_report(const std::string& session, httplib::Response& res) {
+    auto text = read_session_file(session, {"report.html"}, std::size_t{256} << 20);
+    if (!text) return send_failure(res, text.error());
+    res.headers.erase("Content-Security-Policy");  // the default one, replaced: a second would be enforced too
+    res.set_header("Content-Security-Policy",
+                   "sandbox allow-scripts; default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
+                   "img-src data:; font-src data:; frame-ancestors 'none'");
+    res.set_content(std::move(text).value(), "text/html; charset=utf-8");
+  }
+
+  /// A session's manifest or journal, by session name and file name only (one of served_session_files()). `tail`
+  /// keeps the journal's last lines only (the page's log).
+  void serve_session_file(const std::string& session, const std::string& file, int tail, httplib::Response& res) {
+    if (!served_session_files().count(file)) return send_error(res, 404, "not_found", "no such file");
+    auto text = read_session_file(session, {file});
+    if (!text) return send_failure(res, text.error());
+    std::string body = std::move(text).value();
+    if (tail > 0) body = last_lines(body, tail);
+    res.set_content(body, file.ends_with(".json") ? "application/json" : "text/plain; charset=utf-8");
+  }
+
+  /// A frame of a session as the page's thumbnail (frame_thumbnail): by session name, view and bracket index.
+  void serve_frame(const httplib::Request& req, httplib::Response& res) {
+    const std::string session = req.get_param_value("session");
+    const int view = parse_index(req.get_param_value("view"));
+    const int bracket = parse_index(req.get_param_value("bracket"));
+    if (view < 0 || bracket < 0) return send_error(res, 400, "bad_request", "view and bracket must be indices");
+    const fs::path relative = capture::SessionLayout::frame_file_relative(view, bracket);
+    std::vector<std::string> parts;
+    for (const auto& p : relative) parts.push_back(p.string());
+    auto bytes = read_session_file(session, parts);
+    if (!bytes) return send_failure(res, bytes.error());
+    auto thumb = frame_thumbnail(bytes.value(), relative.string(), kThumbnailWidth);
+    if (!thumb) return send_error(res, 500, capture::wire_code(thumb.error().code), thumb.error().message);
+    json j = thumb.value();
+    j["ok"] = true;
+    j["session"] = session;
+    j["view"] = view;
+    j["bracket_index"] = bracket;
+    send_json(res, 200, j);
   }
 
   void serve_events(httplib::Response& res) {
@@ -309,7 +460,21 @@ struct Server::Impl {
     });
     http.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) { serve_events(res); });
     http.Get(R"(/files/([^/]+)/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-      serve_session_file(req.matches[1], req.matches[2], res);
+      const int tail = req.has_param("tail") ? std::min(parse_index(req.get_param_value("tail")), 1000) : 0;
+      serve_session_file(req.matches[1], req.matches[2], tail, res);
+    });
+    http.Get("/api/frame", [this](const httplib::Request& req, httplib::Response& res) { serve_frame(req, res); });
+    http.Get("/api/viewer/scene",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_scene(req, res); });
+    http.Get("/api/viewer/photo",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_photo(req, res); });
+    http.Get(R"(/report/([^/]+))",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_report(req.matches[1], res); });
+    http.Get("/viewer", [this](const httplib::Request&, httplib::Response& res) {
+      res.set_content(std::string(asset("viewer.html")), "text/html; charset=utf-8");
+    });
+    http.Get("/static/viewer.js", [this](const httplib::Request&, httplib::Response& res) {
+      serve_asset(res, "viewer.js", "text/javascript; charset=utf-8");
     });
     // The commands, each with the daemon's own fields: the daemon validates them and its error text is relayed.
     http.Post("/api/start", [this](const httplib::Request& req, httplib::Response& res) {
@@ -326,7 +491,16 @@ struct Server::Impl {
       request["cmd"] = "resume";
       relay_reply(res, request);
     });
-    for (const char* verb : {"pause", "abort", "stop"}) {
+    // The stage, as `vdrig session` could move it: home, and move to an absolute pan/tilt the daemon checks against
+    // the axis limits (the page's jog buttons send the last known position plus a step).
+    http.Post("/api/move", [this](const httplib::Request& req, httplib::Response& res) {
+      auto target = number_fields(req, res, {"pan_deg", "tilt_deg"});
+      if (!target) return;
+      json request = target.value();
+      request["cmd"] = "move";
+      relay_reply(res, request);
+    });
+    for (const char* verb : {"pause", "abort", "stop", "home"}) {
       http.Post(std::string("/api/") + verb, [this, verb](const httplib::Request& req, httplib::Response& res) {
         if (!string_fields(req, res, {})) return;
         relay_reply(res, {{"cmd", verb}});

@@ -81,6 +81,56 @@ try {
   seen.row = await page.$eval(`tr[data-session="${session}"]`, (el) => el.children[1].textContent);
   step('listed');
   seen.events = Number(await text('#event-count'));
+
+  // The live pieces: the hemisphere filled in, the last frame's thumbnail with its bracket and saturation, the
+  // journal's tail.
+  await page.waitForFunction((n) => document.getElementById('hemisphere').dataset.done === String(n), {}, total);
+  seen.hemisphere = await page.$eval('#hemisphere', (c) => {
+    const g = c.getContext('2d');
+    const px = g.getImageData(0, 0, c.width, c.height).data;
+    let green = 0;
+    for (let i = 0; i < px.length; i += 4) if (px[i + 1] > 100 && px[i] < 90 && px[i + 2] < 90) green += 1;
+    return { done: Number(c.dataset.done), views: Number(c.dataset.views), greenPixels: green };
+  });
+  await page.waitForFunction(() => document.getElementById('thumbnail').naturalWidth > 0);
+  seen.thumbnail = await page.$eval('#thumbnail', (img) => {
+    const c = document.createElement('canvas');
+    c.width = img.naturalWidth;
+    c.height = img.naturalHeight;
+    const g = c.getContext('2d');
+    g.drawImage(img, 0, 0);
+    const px = g.getImageData(0, 0, c.width, c.height).data;
+    let sum = 0, min = 255, max = 0;
+    for (let i = 0; i < px.length; i += 4) {
+      const v = (px[i] + px[i + 1] + px[i + 2]) / 3;
+      sum += v; min = Math.min(min, v); max = Math.max(max, v);
+    }
+    return { width: img.naturalWidth, height: img.naturalHeight, view: Number(img.dataset.view),
+             bracket: Number(img.dataset.bracket), saturated: Number(img.dataset.saturated),
+             mean: sum / (px.length / 4), min, max };
+  });
+  seen.thumbnailText = await text('#thumbnail-text');
+  // The thumbnail ends on the session's last frame, and the journal's tail reaches that view's completion.
+  await page.waitForFunction(() => {
+    const v = document.getElementById('thumbnail').dataset.view;
+    return document.getElementById('log-tail').textContent.includes(`view ${v} complete`);
+  });
+  seen.thumbnail.view = await page.$eval('#thumbnail', (img) => Number(img.dataset.view));
+  seen.logTail = await text('#log-tail');
+  seen.drive = await text('#drive-text');
+  seen.camera = await text('#camera-text');
+  step('live pieces');
+
+  // Home, then jog pan by the step: the daemon's replies give the position.
+  await page.click('#home');
+  await page.waitForFunction(() => document.getElementById('stage-text').textContent.startsWith('pan '));
+  seen.homed = await text('#stage-text');
+  await page.$eval('#jog-step', (el) => { el.value = '7.5'; });
+  await page.click('[data-jog="pan,1"]');
+  await page.waitForFunction((h) => document.getElementById('stage-text').textContent.startsWith('pan ') &&
+                             document.getElementById('stage-text').textContent !== h, {}, seen.homed);
+  seen.jogged = await text('#stage-text');
+  step('homed and jogged');
 } catch (e) {
   failed = String(e && e.stack || e);
 } finally {

@@ -55,4 +55,9 @@ cv::Mat tone_map(const cv::Mat& radiance_bgr, double gamma);
 /// clipped (CV_8UC3 or CV_16UC3). Used to compare renders with photographs in the camera's own units.
 cv::Mat to_camera_codes(const cv::Mat& radiance_bgr, double exposure_s, double gain, const ResponseCurve& response);
 
+/// The GLSL of the map's model as the surface shader compiles it: `vec4 g_params[L]`, `void load_params(ivec2 t)`
+/// (reads the L RGBA layers of `uniform sampler2DArray u_params`, channel c in layer c/4) and the model's own
+/// `vec3 model(ivec2 t, vec3 v)` (ReflectanceModel::glsl). The web console's WebGL2 viewer uses the same text.
+std::string model_glsl(const fitting::ParameterMap& map);
+
 }  // namespace vdrig::viewer

@@ -13,12 +13,27 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "vdrig/core/result.hpp"
 
 namespace vdrig::web {
+
+/// What the WebGL2 viewer of a finished session needs (pipeline::web_scene, docs/web.md): the map's model GLSL,
+/// texel grid, surface size, the session's camera and captured poses as JSON, and the parameter layers as
+/// little-endian float32 RGBA (layer l holds map channels 4l..4l+3, rows of texels).
+struct ViewerScene {
+  nlohmann::json scene;
+  std::string params_f32;
+};
+/// The viewer's data of a session folder (built by the server from a listed session's name) and a map name already
+/// checked (`[A-Za-z0-9:._-]`, empty: the first map). Left unset in a build without the post-capture modules.
+using ViewerSceneFn = std::function<Result<ViewerScene>(const std::filesystem::path& session_dir, const std::string&)>;
+/// A captured view's HDR photograph tone-mapped (y = 1 - exp(-gamma x), sRGB) as PNG bytes.
+using ViewerPhotoFn = std::function<Result<std::string>(const std::filesystem::path& session_dir, int view, double)>;
 
 struct ServerOptions {
   std::filesystem::path runtime_dir;  ///< the daemon's folder: runtime_dir/vdrigd.sock
@@ -33,6 +48,8 @@ struct ServerOptions {
   int max_event_streams = 6;               ///< open /api/events streams (each holds a worker); more get 503
   int worker_threads = 12;       ///< below the daemon's 16 connections per uid: one per request, plus the relay's
   double daemon_timeout_s = 30;  ///< a daemon reply (`start` plans the route first) or it is 504
+  ViewerSceneFn viewer_scene;    ///< unset: /api/viewer/* answer 501
+  ViewerPhotoFn viewer_photo;
 };
 
 /// 24 bytes from the system's random source as 48 hex digits.

@@ -1,0 +1,261 @@
+// vdrig viewer: a finished session's parameter map in WebGL2 (docs/web.md), with the model's own GLSL as
+// `vdrig view` compiles it (viewer::model_glsl) and the arithmetic of viewer/src/surface_renderer.cpp's shader:
+// pinhole + Brown distortion, ray onto the surface plane, bilinear blend of the model at the four nearest texel
+// centres, sub-samples per pixel axis, then y = 1 - exp(-gamma x) and sRGB. Orbit, the captured views, and at a
+// captured view the photograph or |render - photo| × 4.
+'use strict';
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+const session = params.get('session') || '';
+let gl = null, program = null, scene = null, photoTex = null, photoView = -1;
+let orbit = { az: 30, zen: 35, dist: 1200 };
+
+const kVertex = `#version 300 es
+void main() {
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}`;
+
+const kHead = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2DArray;
+precision highp sampler2D;
+out vec4 out_colour;
+uniform sampler2DArray u_params;
+uniform sampler2D u_photo;
+uniform ivec2 u_texels;
+uniform vec2 u_size_mm;
+uniform vec4 u_intrinsics;
+uniform float u_dist[5];
+uniform mat3 u_cam_to_surface;
+uniform vec3 u_centre;
+uniform int u_samples;
+uniform int u_height;
+uniform float u_gamma;
+uniform int u_display;  // 0 render, 1 photograph, 2 |render - photo| x 4
+
+vec2 distort(vec2 u) {
+  float r2 = dot(u, u);
+  float radial = 1.0 + r2 * (u_dist[0] + r2 * (u_dist[1] + r2 * u_dist[4]));
+  return vec2(u.x * radial + 2.0 * u_dist[2] * u.x * u.y + u_dist[3] * (r2 + 2.0 * u.x * u.x),
+              u.y * radial + u_dist[2] * (r2 + 2.0 * u.y * u.y) + 2.0 * u_dist[3] * u.x * u.y);
+}
+vec2 undistort(vec2 d) {
+  vec2 u = d;
+  for (int i = 0; i < 40; ++i) {
+    vec2 step = distort(u) - d;
+    u -= step;
+    if (dot(step, step) < 1e-16) break;
+  }
+  return u;
+}
+`;
+
+const kTail = `
+vec3 shade_point(vec3 p) {
+  vec2 st = vec2((p.x + 0.5 * u_size_mm.x) / u_size_mm.x * float(u_texels.x) - 0.5,
+                 (p.y + 0.5 * u_size_mm.y) / u_size_mm.y * float(u_texels.y) - 0.5);
+  ivec2 t0 = ivec2(floor(st));
+  vec2 f = st - vec2(t0);
+  vec3 sum = vec3(0.0);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      ivec2 t = clamp(t0 + ivec2(i, j), ivec2(0), u_texels - 1);
+      vec2 c = vec2((float(t.x) + 0.5) / float(u_texels.x) * u_size_mm.x - 0.5 * u_size_mm.x,
+                    (float(t.y) + 0.5) / float(u_texels.y) * u_size_mm.y - 0.5 * u_size_mm.y);
+      vec3 v = normalize(u_centre - vec3(c, 0.0));
+      float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+      load_params(t);
+      sum += w * model(t, v);
+    }
+  return sum;
+}
+
+void main() {
+  float px = gl_FragCoord.x - 0.5;
+  float py = float(u_height) - gl_FragCoord.y - 0.5;  // OpenCV row from the top
+  vec3 sum = vec3(0.0);
+  float n = float(u_samples);
+  for (int sy = 0; sy < u_samples; ++sy)
+    for (int sx = 0; sx < u_samples; ++sx) {
+      vec2 pix = vec2(px - 0.5 + (float(sx) + 0.5) / n, py - 0.5 + (float(sy) + 0.5) / n);
+      vec2 u = undistort(vec2((pix.x - u_intrinsics.z) / u_intrinsics.x, (pix.y - u_intrinsics.w) / u_intrinsics.y));
+      vec3 ray = u_cam_to_surface * normalize(vec3(u, 1.0));
+      if (abs(ray.z) < 1e-9) continue;
+      float s = -u_centre.z / ray.z;
+      if (s <= 0.0) continue;
+      vec3 p = u_centre + s * ray;
+      if (abs(p.x) > 0.5 * u_size_mm.x || abs(p.y) > 0.5 * u_size_mm.y) continue;
+      sum += shade_point(vec3(p.xy, 0.0));
+    }
+  vec3 radiance = sum / (n * n);
+  vec3 y = 1.0 - exp(-u_gamma * max(radiance, vec3(0.0)));
+  vec3 srgb = mix(12.92 * y, 1.055 * pow(y, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), y));
+  if (u_display != 0) {
+    vec3 photo = texelFetch(u_photo, ivec2(int(px), int(py)), 0).rgb;
+    srgb = u_display == 1 ? photo : min(abs(srgb - photo) * 4.0, vec3(1.0));
+  }
+  out_colour = vec4(srgb, 1.0);
+}
+`;
+
+function fail(text) {
+  $('viewer-error').textContent = text;
+  document.body.dataset.state = 'error';
+}
+
+function compile(type, source) {
+  const s = gl.createShader(type);
+  gl.shaderSource(s, source);
+  gl.compileShader(s);
+  if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error('shader: ' + gl.getShaderInfoLog(s));
+  return s;
+}
+
+function decodeFloats(b64) {
+  const bin = atob(b64);
+  const bytes = new Uint8Array(bin.length);
+  for (let i = 0; i < bin.length; ++i) bytes[i] = bin.charCodeAt(i);
+  return new Float32Array(bytes.buffer);
+}
+
+// viewer::orbit_pose: the camera at `dist` from the surface centre, toward it, rows of R = (e_az, e_zen, -d).
+function orbitPose(azDeg, zenDeg, dist) {
+  const a = azDeg * Math.PI / 180, z = zenDeg * Math.PI / 180;
+  const ca = Math.cos(a), sa = Math.sin(a), cz = Math.cos(z), sz = Math.sin(z);
+  const d = [sz * ca, sz * sa, cz];
+  return { R: [-sa, ca, 0, cz * ca, cz * sa, -sz, -d[0], -d[1], -d[2]], centre: d.map((v) => v * dist) };
+}
+
+async function loadScene(map) {
+  const q = 'session=' + encodeURIComponent(session) + (map ? '&map=' + encodeURIComponent(map) : '');
+  const r = await fetch('/api/viewer/scene?' + q, { credentials: 'same-origin' });
+  const body = await r.json().catch(() => ({ ok: false, error: r.status + ' ' + r.statusText }));
+  if (!body.ok) return fail((body.code ? body.code + ': ' : '') + (body.error || 'no scene'));
+  scene = body;
+  $('title').textContent = `${session}: ${scene.map}`;
+  const mapSelect = $('map');
+  mapSelect.replaceChildren();
+  for (const m of scene.maps) {
+    const o = document.createElement('option');
+    o.value = o.textContent = m;
+    o.selected = m === scene.map;
+    mapSelect.appendChild(o);
+  }
+  const viewSelect = $('view');
+  const keep = viewSelect.value;
+  viewSelect.replaceChildren(new Option('orbit', 'orbit'));
+  for (const v of scene.views) viewSelect.appendChild(new Option(`view ${v.index}` + (v.photo ? '' : ' (no photo)'),
+                                                                 String(v.index)));
+  viewSelect.value = [...viewSelect.options].some((o) => o.value === keep) ? keep : 'orbit';
+
+  const canvas = $('gl');
+  canvas.width = scene.camera.width;
+  canvas.height = scene.camera.height;
+  gl = gl || canvas.getContext('webgl2', { preserveDrawingBuffer: true, antialias: false });
+  if (!gl) return fail('this browser has no WebGL2');
+  program = gl.createProgram();
+  gl.attachShader(program, compile(gl.VERTEX_SHADER, kVertex));
+  gl.attachShader(program, compile(gl.FRAGMENT_SHADER, kHead + scene.glsl + kTail));
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) return fail('link: ' + gl.getProgramInfoLog(program));
+
+  const [w, h] = scene.image_size;
+  const tex = gl.createTexture();
+  gl.activeTexture(gl.TEXTURE0);
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+  gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, w, h, scene.layers, 0, gl.RGBA, gl.FLOAT,
+                decodeFloats(scene.params_base64));
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  photoView = -1;
+  await draw();
+}
+
+async function loadPhoto(view) {
+  if (photoView === view) return true;
+  const img = new Image();
+  img.src = `/api/viewer/photo?session=${encodeURIComponent(session)}&view=${view}`;
+  try {
+    await img.decode();
+  } catch (e) {
+    return false;
+  }
+  photoTex = photoTex || gl.createTexture();
+  gl.activeTexture(gl.TEXTURE1);
+  gl.bindTexture(gl.TEXTURE_2D, photoTex);
+  gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+  gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, img);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  photoView = view;
+  return true;
+}
+
+async function draw() {
+  if (!scene || !program) return;
+  const choice = $('view').value;
+  const view = choice === 'orbit' ? null : scene.views.find((v) => String(v.index) === choice);
+  const pose = view ? { R: view.R, centre: view.centre } : orbitPose(orbit.az, orbit.zen, orbit.dist);
+  let display = Number($('display').value);
+  if (display !== 0 && !(view && view.photo && await loadPhoto(view.index))) display = 0;
+  const c = scene.camera;
+  gl.viewport(0, 0, c.width, c.height);
+  gl.useProgram(program);
+  const loc = (n) => gl.getUniformLocation(program, n);
+  gl.uniform1i(loc('u_params'), 0);
+  gl.uniform1i(loc('u_photo'), 1);
+  gl.uniform2i(loc('u_texels'), scene.texels[0], scene.texels[1]);
+  gl.uniform2f(loc('u_size_mm'), scene.size_mm[0], scene.size_mm[1]);
+  gl.uniform4f(loc('u_intrinsics'), c.fx, c.fy, c.cx, c.cy);
+  gl.uniform1fv(loc('u_dist'), new Float32Array(c.dist));
+  // column-major mat3 of R^T: column j is row j of R, so R's row-major array is R^T's column-major one.
+  gl.uniformMatrix3fv(loc('u_cam_to_surface'), false, new Float32Array(pose.R));
+  gl.uniform3f(loc('u_centre'), pose.centre[0], pose.centre[1], pose.centre[2]);
+  gl.uniform1i(loc('u_samples'), Math.max(1, Math.min(4, Number($('samples').value) || 2)));
+  gl.uniform1i(loc('u_height'), c.height);
+  gl.uniform1f(loc('u_gamma'), Number($('gamma').value) || 1);
+  gl.uniform1i(loc('u_display'), display);
+  gl.clearColor(0.05, 0.05, 0.06, 1);
+  gl.clear(gl.COLOR_BUFFER_BIT);
+  gl.drawArrays(gl.TRIANGLES, 0, 3);
+  gl.finish();
+  const what = ['render', 'photograph', 'difference ×4'][display];
+  $('viewer-status').textContent = (view ? `view ${view.index}` :
+    `orbit: azimuth ${orbit.az}°, zenith ${orbit.zen}°, ${orbit.dist} mm`) + `, ${what}, ${scene.model}`;
+  const canvas = $('gl');
+  canvas.dataset.view = view ? String(view.index) : 'orbit';
+  canvas.dataset.display = String(display);
+  document.body.dataset.state = 'drawn';
+  document.body.dataset.draws = String(Number(document.body.dataset.draws || 0) + 1);
+}
+
+function fromSliders() {
+  orbit = { az: Number($('azimuth').value), zen: Number($('zenith').value), dist: Number($('distance').value) };
+  if ($('view').value !== 'orbit') $('view').value = 'orbit';
+  draw();
+}
+
+$('map').addEventListener('change', () => loadScene($('map').value).catch((e) => fail(String(e))));
+for (const id of ['view', 'display', 'gamma', 'samples']) $(id).addEventListener('change', () => draw());
+for (const id of ['azimuth', 'zenith', 'distance']) $(id).addEventListener('input', fromSliders);
+let drag = null;
+$('gl').addEventListener('pointerdown', (e) => { drag = [e.clientX, e.clientY]; });
+window.addEventListener('pointerup', () => { drag = null; });
+$('gl').addEventListener('pointermove', (e) => {
+  if (!drag) return;
+  $('azimuth').value = String(Number($('azimuth').value) - (e.clientX - drag[0]) * 0.5);
+  $('zenith').value = String(Number($('zenith').value) + (e.clientY - drag[1]) * 0.3);
+  drag = [e.clientX, e.clientY];
+  fromSliders();
+});
+$('gl').addEventListener('wheel', (e) => {
+  e.preventDefault();
+  $('distance').value = String(Number($('distance').value) * (e.deltaY > 0 ? 1.1 : 1 / 1.1));
+  fromSliders();
+}, { passive: false });
+
+if (!session) fail('no session: open the viewer from the console\'s session list');
+else loadScene(params.get('map') || '').catch((e) => fail(String(e)));
