@@ -205,16 +205,23 @@ AdaptiveProgress adaptive_progress(const Session& session) {
   AdaptiveProgress p;
   const auto& extra = session.manifest().extra;
   if (extra.contains("route")) p.base_move_s = extra["route"].value("planned_time_s", 0.0);
+  auto number = [](const nlohmann::json& line, const char* key) {
+    const auto it = line.find(key);
+    return it != line.end() && it->is_number() ? it->get<double>() : 0.0;
+  };
   for (const auto& line : session.adaptive_lines()) {
+    // The lines were checked when the journal was replayed (views numbered on); the other fields are read leniently:
+    // a hand-edited journal must not stop a capture.
     if (line.value("type", "") == "adaptive_stopped") {
-      p.stopped = line.value("reason", "stopped");
+      const auto reason = line.find("reason");
+      p.stopped = reason != line.end() && reason->is_string() ? reason->get<std::string>() : "stopped";
       continue;
     }
     AdaptiveBatch b;
-    b.batch = line.value("batch", 0);
-    b.predicted_error = line.value("predicted_error", 0.0);
-    b.move_s = line.value("move_s", 0.0);
-    b.info = line.value("info", nlohmann::json::object());
+    b.batch = static_cast<int>(number(line, "batch"));
+    b.predicted_error = number(line, "predicted_error");
+    b.move_s = number(line, "move_s");
+    if (const auto info = line.find("info"); info != line.end()) b.info = *info;
     for (const auto& v : line.at("views")) b.views.push_back(v.at("index").get<int>());
     p.batches.push_back(std::move(b));
   }
@@ -284,11 +291,18 @@ Status run_adaptive_session(rig::Rig& rig, Session& session, ViewPlanner& planne
   while (true) {
     // Every view planned so far (a resumed session: those of the batches already journaled) before the next plan.
     // Homed once (run_session), then each batch captured from where the stage is.
+    Status captured = Status::ok();
     if (first) {
-      VDRIG_TRY(run_session(rig, session, options.capture, /*park=*/false));
+      captured = run_session(rig, session, options.capture, /*park=*/false);
       first = false;
     } else if (session.completed_view_count() < static_cast<int>(session.manifest().views.size())) {
-      VDRIG_TRY(run_capture(rig, session, options.capture));
+      captured = run_capture(rig, session, options.capture);
+    }
+    if (!captured) {
+      // Paused or aborted: the stage is fine, park it as run_session does. Any other fault leaves the axes where
+      // they are (a park would move whichever axis still answers).
+      if (captured.error().code == ErrorCode::kCancelled) (void)rig.stage->move_to(PanTilt{0.0, 0.0});
+      return captured;
     }
     AdaptiveProgress progress = adaptive_progress(session);
     if (progress.stopped) break;
