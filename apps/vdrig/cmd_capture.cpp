@@ -4,6 +4,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 #include "rig_backends.hpp"
+#include "vdrig/capture/adaptive.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
@@ -93,7 +94,13 @@ Status run(const CaptureArgs& a) {
       plan.surface_width_mm = surface.value()->width_mm;
       plan.surface_height_mm = surface.value()->height_mm;
     }
-    auto manifest = capture::plan_manifest(plan);
+    // Adaptive sampling needs its planner (a build with the pipeline): refused before anything is made.
+    if (capture::is_adaptive_scheme(a.scheme)) {
+      auto planner = capture::make_view_planner();
+      if (!planner) return planner.error();
+    }
+    auto manifest =
+        capture::is_adaptive_scheme(a.scheme) ? capture::plan_adaptive_manifest(plan) : capture::plan_manifest(plan);
     if (!manifest) return manifest.error();
     const auto& route = manifest->extra["route"];
     std::printf("%zu views; moves %.1f s planned vs %.1f s in scheme order\n", manifest->views.size(),
@@ -114,7 +121,26 @@ Status run(const CaptureArgs& a) {
   if (!a.resume.empty()) VDRIG_TRY(lock_rig(session->manifest().rig_config));
   auto rig = registry.make_rig(session->manifest().rig_config);
   if (!rig) return rig.error();
-  const Status s = capture::run_session(rig.value(), session.value(), options);
+  Status s = Status::ok();
+  if (session->manifest().extra.contains("adaptive")) {
+    auto planner = capture::make_view_planner();
+    if (!planner) return planner.error();
+    capture::AdaptiveOptions adaptive;
+    adaptive.capture = options;
+    adaptive.on_batch = [&progress](const capture::AdaptiveProgress& p) {
+      progress.finish();
+      if (p.stopped) {
+        std::printf("adaptive sampling stopped: %s\n", p.stopped->c_str());
+      } else if (!p.batches.empty()) {
+        const auto& b = p.batches.back();
+        std::printf("batch %d: %zu views planned (%.1f s of moves), predicted held-out error %.4g\n", b.batch,
+                    b.views.size(), b.move_s, b.predicted_error);
+      }
+    };
+    s = capture::run_adaptive_session(rig.value(), session.value(), *planner.value(), adaptive);
+  } else {
+    s = capture::run_session(rig.value(), session.value(), options);
+  }
   progress.finish();
   // Whatever stopped it (a full disk, a drive fault, a camera gone), the journal keeps every completed view.
   if (!s)

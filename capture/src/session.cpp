@@ -60,6 +60,16 @@ PanTilt pan_tilt_from(const json& j) {
   return {deg_to_rad(j.at("pan_deg").get<double>()), deg_to_rad(j.at("tilt_deg").get<double>())};
 }
 
+/// A planned view as the manifest (and a views_planned journal line) writes it.
+PlannedView planned_view_from(const json& v) {
+  PlannedView pv;
+  pv.index = checked_int<int>(v.at("index"), "index");
+  const auto d = v.at("direction");
+  pv.direction = Vec3d(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>());
+  pv.target = pan_tilt_from(v.at("target"));
+  return pv;
+}
+
 /// Whether a journal line's "view" is a number that names no view of the manifest (99999, -1, 1e30, 2.5): such a
 /// line is ignored. A missing or non-number "view" is left to the line's parser.
 bool view_out_of_range(const json& line, size_t view_count) {
@@ -123,11 +133,7 @@ Result<Manifest> Manifest::from_json(const json& j) {
     m.surface_width_mm = size.at(0).get<double>();
     m.surface_height_mm = size.at(1).get<double>();
     for (const auto& v : j.at("views")) {
-      PlannedView pv;
-      pv.index = checked_int<int>(v.at("index"), "index");
-      const auto d = v.at("direction");
-      pv.direction = Vec3d(d.at(0).get<double>(), d.at(1).get<double>(), d.at(2).get<double>());
-      pv.target = pan_tilt_from(v.at("target"));
+      const PlannedView pv = planned_view_from(v);
       if (pv.index != static_cast<int>(m.views.size()))
         return make_error(ErrorCode::kCorrupt, "manifest: views must be indexed 0..N-1 in order");
       m.views.push_back(pv);
@@ -263,6 +269,26 @@ Result<Session> Session::open(const fs::path& dir) {
         continue;
       }
     }
+    if (type == "views_planned") {
+      // Views planned during an adaptive capture: they extend the plan, unless a rewritten manifest holds them.
+      try {
+        const int first = checked_int<int>(j.at("first_view"), "first_view");
+        const auto& list = j.at("views");
+        if (first < 0 || first > static_cast<int>(s.manifest_.views.size()))
+          return make_error(ErrorCode::kCorrupt, where + ": first_view " + std::to_string(first) + " leaves a gap");
+        for (size_t k = 0; k < list.size(); ++k) {
+          const PlannedView pv = planned_view_from(list[k]);
+          if (pv.index != first + static_cast<int>(k))
+            return make_error(ErrorCode::kCorrupt, where + ": views must be numbered on from first_view");
+          if (pv.index == static_cast<int>(s.manifest_.views.size())) s.manifest_.views.push_back(pv);
+        }
+      } catch (const json::exception& e) {
+        return make_error(ErrorCode::kCorrupt, where + ": " + e.what());
+      }
+      s.adaptive_lines_.push_back(j);
+      continue;
+    }
+    if (type == "adaptive_stopped") s.adaptive_lines_.push_back(j);
     if (type == "frame") {
       auto r = FrameRecord::from_json(j);
       if (!r) return make_error(ErrorCode::kCorrupt, where + ": " + r.error().message);
@@ -524,6 +550,41 @@ Status Session::append_event(const json& event) {
   line["type"] = "event";
   line["utc"] = utc_now();
   return append_journal(line.dump() + "\n");
+}
+
+Status Session::append_planned_views(const std::vector<PlannedView>& views, const json& info) {
+  if (!locked())
+    return make_error(ErrorCode::kInvalidArgument, "session " + dir_.string() + ": planning views needs the lock");
+  Manifest just_these;
+  just_these.views = views;
+  const int first = static_cast<int>(manifest_.views.size());
+  for (size_t k = 0; k < views.size(); ++k)
+    if (views[k].index != first + static_cast<int>(k))
+      return make_error(ErrorCode::kInvalidArgument, "planned views must be numbered on from " + std::to_string(first));
+  json line = info;
+  line["type"] = "views_planned";
+  line["first_view"] = first;
+  line["views"] = just_these.to_json()["views"];
+  line["utc"] = utc_now();
+  // Round trip through the text, so that the views in memory are the ones a resumed process reads.
+  const std::string text = line.dump() + "\n";
+  const json back = json::parse(text);
+  VDRIG_TRY(append_journal(text));
+  for (const auto& v : back.at("views")) manifest_.views.push_back(planned_view_from(v));
+  adaptive_lines_.push_back(back);
+  return Status::ok();
+}
+
+Status Session::append_adaptive_stop(const std::string& reason, const json& info) {
+  if (!locked())
+    return make_error(ErrorCode::kInvalidArgument, "session " + dir_.string() + ": journaling a stop needs the lock");
+  json line = info;
+  line["type"] = "adaptive_stopped";
+  line["reason"] = reason;
+  line["utc"] = utc_now();
+  VDRIG_TRY(append_journal(line.dump() + "\n"));
+  adaptive_lines_.push_back(line);
+  return Status::ok();
 }
 
 Result<cv::Mat> Session::load_image(const FrameRecord& record) const {

@@ -1,5 +1,7 @@
 #include "session_runner.hpp"
 
+#include "vdrig/capture/adaptive.hpp"
+
 #include "vdrig/core/log.hpp"
 
 namespace vdrig::capture {
@@ -57,6 +59,7 @@ json SessionRunner::status() {
     j["bracket_index"] = progress_.bracket_index;
     j["exposure_s"] = progress_.exposure_s;
     j["eta_s"] = progress_.eta_s;
+    if (!adaptive_.is_null()) j["adaptive"] = adaptive_;
   }
   if (!last_error_.empty()) {
     j["error"] = last_error_;
@@ -92,7 +95,12 @@ Result<Manifest> SessionRunner::start(const std::string& name, const fs::path& d
   join_worker();
   VDRIG_TRY(ensure_rig(plan.rig_config, true));
   plan.stage = rig_->stage->spec();
-  auto manifest = plan_manifest(plan);
+  // Adaptive sampling needs the planner this daemon was built with (the pipeline's): refused before anything is made.
+  if (is_adaptive_scheme(plan.scheme)) {
+    auto planner = make_view_planner();
+    if (!planner) return planner.error();
+  }
+  auto manifest = is_adaptive_scheme(plan.scheme) ? plan_adaptive_manifest(plan) : plan_manifest(plan);
   if (!manifest) return manifest.error();
   if (config_.describe_surface) config_.describe_surface(manifest.value());
   auto session = Session::create(dir, manifest.value());
@@ -205,6 +213,21 @@ json SessionRunner::stop_motion() {
   return done;
 }
 
+namespace {
+
+/// Adaptive sampling as `status` and the "adaptive_batch" events report it (docs/protocol.md).
+json adaptive_status(const AdaptiveProgress& p) {
+  json j = {{"batches", p.batches.size()}, {"planned_move_s", p.planned_move_s()}};
+  int views = 0;
+  for (const auto& b : p.batches) views += static_cast<int>(b.views.size());
+  j["views_chosen"] = views;  // by the batches, beyond the base scheme
+  if (!p.batches.empty()) j["predicted_error"] = p.batches.back().predicted_error;
+  if (p.stopped) j["stopped"] = *p.stopped;
+  return j;
+}
+
+}  // namespace
+
 void SessionRunner::launch(Session session, const std::string& name) {
   {
     std::lock_guard lock(mutex_);
@@ -213,6 +236,7 @@ void SessionRunner::launch(Session session, const std::string& name) {
     progress_ = {};
     progress_.views_total = static_cast<int>(session.manifest().views.size());
     progress_.views_done = session.completed_view_count();
+    adaptive_ = session.manifest().extra.contains("adaptive") ? adaptive_status(adaptive_progress(session)) : json();
     last_error_.clear();
     last_error_code_.clear();
     intent_ = StopIntent::kNone;
@@ -248,7 +272,29 @@ void SessionRunner::launch(Session session, const std::string& name) {
     // No exception may cross the thread boundary (it would terminate the daemon): a backend that throws (OpenCV, a
     // vendor library) fails the session as kInternal instead, and the daemon keeps serving.
     try {
-      result = run_session(*rig_, s, options, true);
+      if (s.manifest().extra.contains("adaptive")) {
+        auto planner = make_view_planner();
+        if (!planner) {
+          result = planner.error();
+        } else {
+          AdaptiveOptions adaptive;
+          adaptive.capture = options;
+          adaptive.on_batch = [this, name](const AdaptiveProgress& p) {
+            {
+              std::lock_guard lock(mutex_);
+              adaptive_ = adaptive_status(p);
+              json ev = adaptive_;
+              ev["event"] = "adaptive_batch";
+              ev["session"] = name;
+              events_.push_back(ev);
+            }
+            wake_();
+          };
+          result = run_adaptive_session(*rig_, s, *planner.value(), adaptive);
+        }
+      } else {
+        result = run_session(*rig_, s, options, true);
+      }
     } catch (const std::exception& e) {
       result = make_error(ErrorCode::kInternal, std::string("capture threw: ") + e.what());
     }

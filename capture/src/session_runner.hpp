@@ -109,6 +109,7 @@ class SessionRunner {
   RunState state_ = RunState::kIdle;
   std::string session_name_;
   CaptureProgress progress_;
+  nlohmann::json adaptive_;  // adaptive sampling's batches so far (status "adaptive"), null for a fixed scheme
   std::string last_error_, last_error_code_;
   std::deque<nlohmann::json> events_;
   std::string motion_what_;                       // "homing" / "moving" while a home/move runs, else ""

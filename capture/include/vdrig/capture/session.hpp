@@ -154,6 +154,15 @@ class Session {
   int view_frame_count(int view) const;
   /// Appends an informational journal line ({"type": "event", ...}): faults, pauses, resumptions.
   Status append_event(const nlohmann::json& event);
+  /// Adaptive sampling (adaptive.hpp): appends views chosen during the capture to the plan, in one fsync'd
+  /// "views_planned" journal line carrying `info`; then manifest().views holds them (indices continue the plan),
+  /// here and in every later open(). Needs the lock. The views are read back from the line's JSON, so this process
+  /// aims exactly as a resumed one would.
+  Status append_planned_views(const std::vector<PlannedView>& views, const nlohmann::json& info);
+  /// Appends an "adaptive_stopped" line: adaptive sampling ended, `reason` says why. Needs the lock.
+  Status append_adaptive_stop(const std::string& reason, const nlohmann::json& info);
+  /// The journal's "views_planned" and "adaptive_stopped" lines, in order.
+  const std::vector<nlohmann::json>& adaptive_lines() const { return adaptive_lines_; }
 
   /// Test/fault-injection hook called before every file write of the session (frame image; journal append: one per
   /// committed view and one per event) with the path about to be written; a failed Status is returned by that write as
@@ -181,6 +190,7 @@ class Session {
   std::shared_ptr<ProcessLock> lock_;  // held while capturing (shared by copies; released when the last goes)
   bool journal_torn_when_read_ = false;
   std::vector<std::string> journal_warnings_;
+  std::vector<nlohmann::json> adaptive_lines_;
 };
 
 /// The software version written into manifests.

@@ -1,0 +1,260 @@
+#include "vdrig/pipeline/adaptive_stage.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "vdrig/capture/route.hpp"
+#include "vdrig/capture/schemes.hpp"
+#include "vdrig/core/camera.hpp"
+#include "vdrig/core/log.hpp"
+#include "vdrig/fitting/obsmap.hpp"
+#include "vdrig/fitting/phong.hpp"
+
+namespace vdrig::pipeline {
+namespace {
+
+/// Views a lobe's support cone should hold before its width counts as measured: docs/sampling.md, "adaptive".
+constexpr double kWantedLobeViews = 6.0;
+/// Lobes broader than this (support cone of 37 deg half-angle) are left to the coverage term.
+constexpr double kNarrowLobeShininess = 10.0;
+/// Candidate directions: an equal-area jittered grid (stratified, seeded) of this many rows and columns.
+constexpr int kCandidateRows = 24, kCandidateColumns = 64;
+/// Angle (rad) at which a coverage gap counts fully; larger gaps count as this (a gap is about a spacing).
+constexpr double kGapRad = 10.0 * kPi / 180.0, kGapCapRad = 30.0 * kPi / 180.0;
+/// Candidates closer than this to a view taken or chosen are not taken again.
+constexpr double kMinSeparationRad = 1.5 * kPi / 180.0;
+
+double luminance(const Eigen::Vector3f& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
+double luminance(const Vec3d& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
+
+/// A view's radiance from its frames, merged without a response curve: per pixel, the most exposed frame where it is
+/// below the top code, codes / (max code * exposure * gain); pixels clipped in every frame are masked.
+fitting::ViewInput view_input(const capture::Session& session, int view, const CameraModel& camera,
+                              const rig::RigGeometry& geometry, Status* error) {
+  fitting::ViewInput in;
+  in.camera = camera;
+  auto frames = session.frames_of_view(view);
+  if (frames.empty()) {
+    *error = make_error(ErrorCode::kNotFound, "view " + std::to_string(view) + " has no frame");
+    return in;
+  }
+  std::stable_sort(frames.begin(), frames.end(), [](const capture::FrameRecord& x, const capture::FrameRecord& y) {
+    return x.exposure_s > y.exposure_s;
+  });
+  for (const auto& f : frames) {
+    auto image = session.load_image(f);
+    if (!image) {
+      *error = image.error();
+      return in;
+    }
+    const double max_code = image->depth() == CV_16U ? 65535.0 : 255.0;
+    cv::Mat bgr;
+    if (image->channels() == 1) {
+      cv::merge(std::vector<cv::Mat>{image.value(), image.value(), image.value()}, bgr);
+    } else {
+      bgr = image.value();
+    }
+    cv::Mat codes;
+    bgr.convertTo(codes, CV_32FC3);
+    if (in.radiance_bgr.empty()) {
+      in.radiance_bgr = cv::Mat::zeros(bgr.rows, bgr.cols, CV_32FC3);
+      in.clip_mask = cv::Mat(bgr.rows, bgr.cols, CV_8UC1, cv::Scalar(255));
+    }
+    if (codes.size() != in.radiance_bgr.size()) continue;
+    const float scale = static_cast<float>(1.0 / (max_code * f.exposure_s * std::max(f.gain, 1e-9)));
+    const float top = static_cast<float>(max_code) - 0.5f;
+    for (int y = 0; y < codes.rows; ++y)
+      for (int x = 0; x < codes.cols; ++x) {
+        if (!in.clip_mask.at<uint8_t>(y, x)) continue;  // a more exposed frame had it unclipped
+        const cv::Vec3f& c = codes.at<cv::Vec3f>(y, x);
+        if (c[0] >= top || c[1] >= top || c[2] >= top) continue;
+        in.radiance_bgr.at<cv::Vec3f>(y, x) = c * scale;
+        in.clip_mask.at<uint8_t>(y, x) = 0;
+      }
+  }
+  in.pose = rig::surface_pose(geometry, frames.front().measured);
+  return in;
+}
+
+struct TexelLobe {
+  Vec3d point_mm = Vec3d::Zero();
+  Vec3d direction = Vec3d::UnitZ();
+  double shininess = 1;
+  double weight = 0;   // how much the lobe matters: its share of the texel's brightness
+  double in_cone = 0;  // observations inside its support cone (and views chosen into it since)
+  bool capped = false;
+  /// What one more view in the cone is worth: the variance of a lobe's fit falls about as 1 / n with n views in its
+  /// cone, so its need is want / (want + n): 1 with none, 1/2 at kWantedLobeViews, never 0. A lobe whose width the
+  /// sampling capped is narrower than the fit can say: at least 1/2.
+  double need() const {
+    const double need = kWantedLobeViews / (kWantedLobeViews + in_cone);
+    return capped ? std::max(need, 0.5) : need;
+  }
+  bool poorly_constrained() const { return capped || in_cone < kWantedLobeViews; }
+};
+
+class CoarseFitPlanner final : public capture::ViewPlanner {
+ public:
+  Result<capture::BatchPlan> plan_batch(const capture::BatchRequest& req) override {
+    auto logger = log::get("pipeline");
+    const auto start = std::chrono::steady_clock::now();
+    const capture::Session& session = *req.session;
+    const capture::AdaptiveSettings& a = req.settings;
+    const auto camera_path = a.camera.empty() ? session.layout().camera_file() : std::filesystem::path(a.camera);
+    auto camera = CameraModel::load_yaml(camera_path);
+    if (!camera)
+      return make_error(camera.error().code,
+                        "adaptive sampling projects with the camera's intrinsics: " + camera.error().message +
+                            " (give camera=FILE.yml in the scheme, from `vdrig calib intrinsics`)");
+    // The coarse observation map of every complete view.
+    std::vector<int> views;
+    for (const auto& v : session.manifest().views)
+      if (session.view_complete(v.index)) views.push_back(v.index);
+    if (views.empty()) return make_error(ErrorCode::kInvalidArgument, "adaptive planning needs captured views");
+    fitting::ObservationMapSpec spec;
+    spec.texels_s = spec.texels_t = a.res;
+    spec.width_mm = session.manifest().surface_width_mm;
+    spec.height_mm = session.manifest().surface_height_mm;
+    fitting::ObservationMap map(spec, static_cast<int>(views.size()));
+    for (size_t k = 0; k < views.size(); ++k) {
+      Status error = Status::ok();
+      const fitting::ViewInput input = view_input(session, views[k], camera.value(), req.geometry, &error);
+      if (!error) return error.error();
+      fitting::add_view(map, static_cast<int>(k), input);
+    }
+    // Held out for the predicted error: the last batch (what the fit before it predicted there), or, after the base,
+    // every fourth base view.
+    std::vector<int> held;  // map view indices, sorted
+    for (size_t k = 0; k < views.size(); ++k) {
+      const bool in_last =
+          std::find(req.previous_batch.begin(), req.previous_batch.end(), views[k]) != req.previous_batch.end();
+      if (req.previous_batch.empty() ? k % 4 == 2 : in_last) held.push_back(static_cast<int>(k));
+    }
+    fitting::PhongFitOptions phong;
+    phong.lobes = 1;
+    std::vector<TexelLobe> lobes;
+    double err2 = 0, sig2 = 0;
+    int poorly = 0;
+    for (int t = 0; t < a.res; ++t)
+      for (int s = 0; s < a.res; ++s) {
+        const fitting::TexelObservations all = map.texel(s, t);
+        if (all.size() < 4) continue;
+        // Predicted error: the fit without the held-out views, at them.
+        const fitting::TexelObservations fit_obs = map.texel(s, t, held);
+        if (fit_obs.size() >= 4 && fit_obs.size() < all.size()) {
+          const fitting::PhongFit before = fitting::fit_phong(fit_obs, phong);
+          for (size_t i = 0; i < all.size(); ++i) {
+            if (!std::binary_search(held.begin(), held.end(), all.view[i])) continue;
+            const double predicted = luminance(before.params.evaluate(all.direction[i].cast<double>()));
+            const double seen = luminance(all.radiance[i]);
+            err2 += (predicted - seen) * (predicted - seen);
+            sig2 += seen * seen;
+          }
+        }
+        const fitting::PhongFit fit = fitting::fit_phong(all, phong);
+        if (fit.params.lobes.empty()) continue;
+        const fitting::PhongLobe& lobe = fit.params.lobes.front();
+        // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
+        if (lobe.shininess < kNarrowLobeShininess) continue;
+        TexelLobe tl;
+        tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+        tl.direction = lobe.direction.normalized();
+        tl.shininess = lobe.shininess;
+        const double ks = luminance(lobe.ks), kd = luminance(fit.params.kd);
+        tl.weight = ks / std::max(1e-12, ks + kd);
+        tl.capped = fit.capped_lobes > 0;
+        const double cone_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / std::max(1.0, tl.shininess));
+        for (size_t i = 0; i < all.size(); ++i)
+          if (all.direction[i].cast<double>().dot(tl.direction) >= cone_cos) tl.in_cone += 1;
+        if (tl.poorly_constrained()) ++poorly;
+        lobes.push_back(tl);
+      }
+    const double predicted_error = sig2 > 0 ? std::sqrt(err2 / sig2) : 0.0;
+
+    // Candidates the stage reaches, away from the views taken.
+    std::vector<Vec3d> taken;
+    for (const auto& v : session.manifest().views) taken.push_back(v.direction);
+    const auto grid = capture::stratified_directions(kCandidateRows, kCandidateColumns, a.seed + req.batch,
+                                                     a.max_zenith_deg * kPi / 180.0);
+    const capture::TargetPlan reach = capture::plan_targets(req.geometry, req.stage, grid, req.from.pan_rad);
+    struct Candidate {
+      Vec3d direction;
+      PanTilt target;
+      std::vector<Vec3d> texel_dirs;  // per lobe texel: the direction the texel sees the camera from
+      bool used = false;
+    };
+    std::vector<Candidate> cands;
+    for (const auto& r : reach.reachable) {
+      Candidate c{r.direction, r.pan_tilt, {}, false};
+      const ViewPose pose = rig::surface_pose(req.geometry, r.pan_tilt);
+      for (const auto& l : lobes) c.texel_dirs.push_back(pose.view_direction(l.point_mm));
+      cands.push_back(std::move(c));
+    }
+    auto gap_of = [&](const Vec3d& d) {
+      double best = kPi;
+      for (const auto& v : taken) best = std::min(best, std::acos(std::clamp(d.dot(v), -1.0, 1.0)));
+      return best;
+    };
+    auto lobe_value = [&](const TexelLobe& l, const Vec3d& dir) {
+      const double c = dir.dot(l.direction);
+      return c > 0 ? std::pow(c, l.shininess) : 0.0;
+    };
+    capture::BatchPlan plan;
+    plan.predicted_error = predicted_error;
+    PanTilt at = req.from;
+    double lobe_total = 0, coverage_total = 0;
+    for (int pick = 0; pick < req.max_views; ++pick) {
+      int best = -1;
+      double best_utility = 0, best_lobe = 0, best_cov = 0;
+      for (size_t i = 0; i < cands.size(); ++i) {
+        Candidate& c = cands[i];
+        if (c.used) continue;
+        const double gap = gap_of(c.direction);
+        if (gap < kMinSeparationRad) continue;
+        double lobe_term = 0;
+        for (size_t k = 0; k < lobes.size(); ++k)
+          lobe_term += lobes[k].weight * lobes[k].need() * lobe_value(lobes[k], c.texel_dirs[k]);
+        // Per texel with a lobe: up to 1 when every lobe needs views and the candidate sits on their axes.
+        lobe_term /= static_cast<double>(std::max<size_t>(lobes.size(), 1));
+        const double g = std::min(gap, kGapCapRad) / kGapRad;
+        const double cov_term = a.coverage_weight * g * g / 9.0;  // 1 at the capped gap
+        const double value = lobe_term + cov_term;
+        const double utility = value / (1.0 + capture::move_time_s(req.stage, at, c.target) / a.move_weight_s);
+        if (utility > best_utility) {
+          best_utility = utility;
+          best = static_cast<int>(i);
+          best_lobe = lobe_term;
+          best_cov = cov_term;
+        }
+      }
+      if (best < 0 || best_utility < 1e-9) break;
+      Candidate& c = cands[best];
+      c.used = true;
+      plan.directions.push_back(c.direction);
+      taken.push_back(c.direction);
+      at = c.target;
+      lobe_total += best_lobe;
+      coverage_total += best_cov;
+      for (size_t k = 0; k < lobes.size(); ++k)
+        if (lobe_value(lobes[k], c.texel_dirs[k]) >= fitting::kLobeSupportLevel) lobes[k].in_cone += 1;
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    plan.info = {{"views_fitted", views.size()}, {"held_out", held.size()},  {"texels_with_lobe", lobes.size()},
+                 {"poorly_constrained", poorly}, {"lobe_value", lobe_total}, {"coverage_value", coverage_total},
+                 {"planning_s", seconds}};
+    logger->info(
+        "adaptive plan {}: {} views fitted, {} lobes ({} poorly constrained), predicted error {:.4g}, {:.2f} s",
+        req.batch, views.size(), lobes.size(), poorly, predicted_error, seconds);
+    return plan;
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<capture::ViewPlanner> make_coarse_fit_planner() { return std::make_unique<CoarseFitPlanner>(); }
+
+void register_adaptive_planner() { capture::register_view_planner_factory(make_coarse_fit_planner); }
+
+}  // namespace vdrig::pipeline

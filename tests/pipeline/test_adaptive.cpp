@@ -1,0 +1,298 @@
+// Adaptive sampling (capture/adaptive.hpp, pipeline/adaptive_stage.hpp) on a small simulated scene with one narrow
+// highlight: the batches go into the highlight's cone where a uniform scheme of the same size misses it; budgets are
+// never exceeded; SIGKILL at random moments and resuming gives the same views as an uninterrupted run; bad settings
+// are refused naming the reason. The planner projects with the simulator's TRUE camera (written as camera.yml):
+// the test is not about calibration.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include "vdrig/capture/adaptive.hpp"
+#include "vdrig/capture/plan.hpp"
+#include "vdrig/capture/route.hpp"
+#include "vdrig/capture/schemes.hpp"
+#include "vdrig/pipeline/adaptive_stage.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/temp_dir.hpp"
+
+namespace vdrig::pipeline {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// The mirror direction of the scene's light about the normal, at the surface centre: the highlight's axis, 5 deg from
+/// a view of the base scheme (icosahedron:1), so that the base sees the highlight's flank.
+const Vec3d kHighlight = Vec3d(-0.5266, -0.3687, 0.766);  // azimuth 215 deg, zenith 40 deg
+
+fs::path write_scene(const fs::path& dir) {
+  const json scene = {
+      {"format", "vdrig-scene"},
+      {"version", 1},
+      {"name", "narrow-highlight"},
+      {"width_mm", 300.0},
+      {"height_mm", 300.0},
+      {"materials", {{{"name", "gloss"}, {"kd", {0.15, 0.15, 0.15}}, {"ks", {0.8, 0.8, 0.8}}, {"shininess", 300.0}}}},
+      {"patches", {{{"x0_mm", -150.0}, {"y0_mm", -150.0}, {"x1_mm", 150.0}, {"y1_mm", 150.0}, {"material", 0}}}},
+      {"markers", json::array()},
+      {"lights", {{{"position_mm", {1579.8, 1106.1, 2298.1}}, {"intensity", {4.8e7, 4.8e7, 4.8e7}}}}}};
+  const fs::path path = dir / "scene.json";
+  std::ofstream(path) << scene.dump(2);
+  return path;
+}
+
+struct AdaptiveRig {
+  fs::path root;
+  json rig_config;
+  fs::path camera_yml;
+};
+
+AdaptiveRig make_setup(const std::string& name) {
+  AdaptiveRig s;
+  s.root = test::fresh_temp_dir("adaptive_" + name);
+  const fs::path scene = write_scene(s.root);
+  s.rig_config = sim::sim_rig_config({{"scene", scene.string()},
+                                      {"samples_per_axis", 1},
+                                      {"camera",
+                                       {{"width", 160},
+                                        {"height", 120},
+                                        {"fx", 800},
+                                        {"fy", 800},
+                                        {"cx", 79.5},
+                                        {"cy", 59.5},
+                                        {"k1", 0},
+                                        {"k2", 0},
+                                        {"response", "linear"},
+                                        {"full_well_e", 0},
+                                        {"read_noise_e", 0}}}});
+  // The simulator's true intrinsics: this test is about planning, not calibration.
+  CameraModel camera{160, 120, 800.0, 800.0, 79.5, 59.5, 0, 0, 0, 0, 0};
+  s.camera_yml = s.root / "camera.yml";
+  EXPECT_TRUE(camera.save_yaml(s.camera_yml));
+  return s;
+}
+
+Result<rig::Rig> make_rig(const json& config) { return sim::simulator_and_hardware_backends().make_rig(config); }
+
+fs::path create(const AdaptiveRig& s, const std::string& dir_name, const std::string& scheme) {
+  const fs::path dir = s.root / dir_name;
+  auto rig = make_rig(s.rig_config);
+  EXPECT_TRUE(rig) << rig.error().describe();
+  capture::PlanRequest req;
+  req.rig_config = s.rig_config;
+  req.scheme = scheme;
+  req.bracket = "fixed:0.25,0.01";
+  req.stage = rig->stage->spec();
+  req.surface_width_mm = req.surface_height_mm = 300;
+  auto manifest =
+      capture::is_adaptive_scheme(scheme) ? capture::plan_adaptive_manifest(req) : capture::plan_manifest(req);
+  EXPECT_TRUE(manifest) << manifest.error().describe();
+  EXPECT_TRUE(capture::Session::create(dir, manifest.value()));
+  return dir;
+}
+
+Status run(const fs::path& dir) {
+  auto session = capture::Session::open_for_capture(dir);
+  if (!session) return session.error();
+  auto rig = make_rig(session->manifest().rig_config);
+  if (!rig) return rig.error();
+  auto planner = make_coarse_fit_planner();
+  capture::AdaptiveOptions o;
+  o.capture.bracket = capture::parse_bracket(session->manifest().bracket).value();
+  o.capture.disk_reserve_bytes = 0;
+  return capture::run_adaptive_session(rig.value(), session.value(), *planner, o);
+}
+
+int views_within(const capture::Session& session, double degrees, int from_view = 0) {
+  int n = 0;
+  for (const auto& v : session.manifest().views)
+    if (v.index >= from_view && v.direction.dot(kHighlight.normalized()) >= std::cos(degrees * kPi / 180)) ++n;
+  return n;
+}
+
+std::string spec(const AdaptiveRig& s, const std::string& settings) {
+  return "adaptive:" + settings + ",camera=" + s.camera_yml.string();
+}
+
+TEST(Adaptive, PutsItsBatchesIntoTheNarrowHighlightWhereAUniformSchemeMissesIt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const AdaptiveRig s = make_setup("highlight");
+  const fs::path dir = create(s, "adaptive", spec(s, "40,base=icosahedron:1@85"));
+  ASSERT_TRUE(run(dir));
+  auto session = capture::Session::open(dir);
+  ASSERT_TRUE(session);
+  const int n = static_cast<int>(session->manifest().views.size());
+  const int base = 17;
+  EXPECT_LE(n, 40);
+  EXPECT_GT(n, base);
+  EXPECT_EQ(session->completed_view_count(), n);
+  const auto progress = capture::adaptive_progress(session.value());
+  ASSERT_TRUE(progress.stopped);
+  const int adaptive_in_cone = views_within(session.value(), 12.0, base);
+  // The uniform schemes of the same size.
+  int uniform_best = 0;
+  for (const std::string& uniform :
+       std::vector<std::string>{"spiral:" + std::to_string(n) + ":4@85", "stratified:5x8:1@85"}) {
+    auto samples = capture::generate(uniform);
+    ASSERT_TRUE(samples);
+    int in = 0;
+    for (const auto& d : samples->directions) in += d.dot(kHighlight.normalized()) >= std::cos(12.0 * kPi / 180);
+    uniform_best = std::max(uniform_best, in);
+  }
+  std::printf(
+      "%d views (%d adaptive, %d of them within 12 deg of the highlight; uniform schemes: at most %d), "
+      "stopped: %s, %.1f s\n",
+      n, n - base, adaptive_in_cone, uniform_best, progress.stopped->c_str(),
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  EXPECT_GT(2 * adaptive_in_cone, n - base) << "most adaptive views in the highlight's cone";
+  EXPECT_LE(uniform_best, 3);
+  EXPECT_GE(adaptive_in_cone, 3 * std::max(uniform_best, 1));
+  fs::remove_all(s.root);
+}
+
+TEST(Adaptive, BudgetsAreNeverExceeded) {
+  const AdaptiveRig s = make_setup("budget");
+  {
+    // A base whose moves alone pass the time budget is refused when planned (27.7 s of moves for this base).
+    auto rig = make_rig(s.rig_config);
+    capture::PlanRequest req;
+    req.rig_config = s.rig_config;
+    req.scheme = spec(s, "30,base=icosahedron:1@85,time_s=20");
+    req.bracket = "fixed:0.25";
+    req.stage = rig->stage->spec();
+    auto refused = capture::plan_adaptive_manifest(req);
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().message.find("more than time_s = 20"), std::string::npos) << refused.error().message;
+  }
+  for (const double time_s : {0.0, 30.0, 33.0}) {
+    const std::string settings = "30,base=icosahedron:1@85,batch=4" +
+                                 (time_s > 0 ? ",time_s=" + std::to_string(time_s) : std::string()) + ",gain=0";
+    const fs::path dir = create(s, "budget_" + std::to_string(static_cast<int>(time_s)), spec(s, settings));
+    ASSERT_TRUE(run(dir));
+    auto session = capture::Session::open(dir);
+    ASSERT_TRUE(session);
+    auto rig = make_rig(s.rig_config);
+    // The stage's moves, recomputed from the plan: from home through every view in order.
+    double moves_s = 0;
+    PanTilt at{0, 0};
+    for (const auto& v : session->manifest().views) {
+      moves_s += capture::move_time_s(rig->stage->spec(), at, v.target);
+      at = v.target;
+    }
+    const auto progress = capture::adaptive_progress(session.value());
+    ASSERT_TRUE(progress.stopped);
+    std::printf("time_s %.0f: %zu views, %.1f s of moves; %s\n", time_s, session->manifest().views.size(), moves_s,
+                progress.stopped->c_str());
+    EXPECT_LE(session->manifest().views.size(), 30u);
+    if (time_s > 0) {
+      EXPECT_LE(moves_s, time_s + 1e-6);
+      EXPECT_NE(progress.stopped->find("time budget"), std::string::npos) << *progress.stopped;
+    } else {
+      EXPECT_EQ(session->manifest().views.size(), 30u);  // gain=0: never converged, the view budget stops it
+    }
+  }
+  fs::remove_all(s.root);
+}
+
+std::vector<Vec3d> view_directions(const fs::path& dir) {
+  std::vector<Vec3d> d;
+  auto session = capture::Session::open(dir);
+  if (!session) return d;
+  const capture::Manifest& m = session->manifest();
+  for (const auto& v : m.views) d.push_back(v.direction);
+  return d;
+}
+
+TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const AdaptiveRig s = make_setup("kill");
+  const std::string scheme = spec(s, "35,base=icosahedron:1@85,batch=5,gain=0");
+  const fs::path reference = create(s, "reference", scheme);
+  ASSERT_TRUE(run(reference));
+  const std::vector<Vec3d> expected = view_directions(reference);
+  ASSERT_EQ(expected.size(), 35u);
+
+  const fs::path dir = create(s, "killed", scheme);
+  const fs::path journal = capture::SessionLayout(dir).journal_file();
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<std::uintmax_t> grow(1, 4000);
+  std::uniform_int_distribution<int> extra_us(0, 20000);
+  int kills = 0;
+  for (int round = 0; round < 40; ++round) {
+    const std::uintmax_t target = fs::file_size(journal) + grow(rng);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) ::_exit(run(dir) ? 0 : 3);
+    int status = 0;
+    bool exited = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < deadline) {
+      std::error_code ec;
+      if (fs::file_size(journal, ec) >= target) break;
+      if (::waitpid(pid, &status, WNOHANG) == pid) {
+        exited = true;
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    if (!exited) {
+      std::this_thread::sleep_for(std::chrono::microseconds(extra_us(rng)));
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+    }
+    if (WIFSIGNALED(status)) {
+      ++kills;
+    } else {
+      ASSERT_EQ(WEXITSTATUS(status), 0);
+      auto after = capture::Session::open(dir);
+      ASSERT_TRUE(after);
+      if (capture::adaptive_progress(after.value()).stopped) break;
+    }
+  }
+  ASSERT_TRUE(run(dir));
+  const std::vector<Vec3d> got = view_directions(dir);
+  ASSERT_EQ(got.size(), expected.size());
+  for (size_t i = 0; i < got.size(); ++i) EXPECT_LT((got[i] - expected[i]).norm(), 1e-12) << "view " << i;
+  // Each view complete exactly once in the journal.
+  std::vector<int> completions(got.size(), 0);
+  std::ifstream in(journal);
+  std::string line;
+  while (std::getline(in, line)) {
+    const json j = json::parse(line, nullptr, false);
+    ASSERT_FALSE(j.is_discarded());
+    if (j.value("type", "") == "view_complete") ++completions.at(j.at("view").get<size_t>());
+  }
+  for (size_t v = 0; v < got.size(); ++v) EXPECT_EQ(completions[v], 1) << "view " << v;
+  EXPECT_GE(kills, 5);
+  std::printf("%d kills, %.1f s\n", kills,
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  fs::remove_all(s.root);
+}
+
+TEST(Adaptive, BadSettingsAreRefusedWithTheReason) {
+  auto why = [](const std::string& spec) {
+    auto r = capture::parse_adaptive_scheme(spec);
+    EXPECT_FALSE(r) << spec;
+    return r ? std::string() : r.error().message;
+  };
+  EXPECT_NE(why("adaptive:10,base=icosahedron:2").find("73 directions, not fewer than N = 10"), std::string::npos);
+  const std::string two = why("adaptive:60,batch=0,colour=red");
+  EXPECT_NE(two.find("unknown key \"colour\""), std::string::npos) << two;
+  EXPECT_NE(two.find("batch must be in 1..100"), std::string::npos) << two;
+  EXPECT_NE(why("adaptive:x").find("N must be a whole number"), std::string::npos);
+  EXPECT_NE(why("adaptive:60,time_s=-1").find("time_s"), std::string::npos);
+  EXPECT_NE(why("adaptive:60,base=adaptive:20").find("not adaptive"), std::string::npos);
+  EXPECT_NE(why("adaptive:60,res=1").find("res"), std::string::npos);
+  auto ok = capture::parse_adaptive_scheme("adaptive:60,batch=8,time_s=120");
+  ASSERT_TRUE(ok) << ok.error().describe();
+  EXPECT_EQ(ok->batch, 8);
+  EXPECT_EQ(capture::parse_adaptive_scheme(ok->to_spec())->to_spec(), ok->to_spec());
+}
+
+}  // namespace
+}  // namespace vdrig::pipeline
