@@ -365,6 +365,11 @@ def main():
         except Exception as e:  # every failure is an answer, never a silent exit
             reply(fd, {"ok": False, "error": "%s: %s" % (type(e).__name__, e)})
     sys.stdout.flush()
+    # vdrig went away (or asked to quit): the work folder it made for this process goes with it.
+    here = os.path.dirname(os.path.abspath(__file__))
+    if os.path.basename(here).startswith("vdrig-blender-"):
+        import shutil
+        shutil.rmtree(here, ignore_errors=True)
 
 
 main()

@@ -27,15 +27,24 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   if (std::system("command -v blender >/dev/null 2>&1") != 0) GTEST_SKIP() << "blender is not installed";
   const test::TempDir dir("blender_session");
   const auto t0 = std::chrono::steady_clock::now();
+  // The issue's target sample: a textured, clearcoated plastic, a .blend of Principled BSDF (scripts/blender_scenes.py)
+  // whose clearcoat lobe and Fresnel no vdrig model has.
+  const fs::path blend = dir.path() / "textured_clearcoat_plastic.blend";
+  const std::string make = "blender --background --factory-startup --python " +
+                           (fs::path(VDRIG_SOURCE_DIR) / "scripts" / "blender_scenes.py").string() + " -- " +
+                           dir.path().string() + " textured_clearcoat_plastic >/dev/null 2>&1";
+  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  ASSERT_TRUE(fs::exists(blend));
   CaptureRequest req;
   req.out_dir = dir.path() / "session";
-  // The demo's field of view at 320 x 240, lens distortion on; Cycles at 16 samples a pixel.
+  // The demo's field of view at 256 x 192, lens distortion on; Cycles at 16 samples a pixel. The .blend's surface
+  // is 1 m square, vdrig's corner markers added (the built-in scenes' layout, which the "scene" key gives).
   req.rig_config = {
       {"stage", {{"backend", "sim"}}},
-      {"camera", {{"backend", "blender"}, {"samples", 16}}},
+      {"camera", {{"backend", "blender"}, {"samples", 16}, {"blend", blend.string()}}},
       {"light", {{"backend", "sim"}}},
-      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 320}, {"height", 240}, {"fx", 400.0}, {"fy", 400.0}}}}}};
-  req.scheme = "latlong:4";
+      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 256}, {"height", 192}, {"fx", 320.0}, {"fy", 320.0}}}}}};
+  req.scheme = "latlong:3";
   req.exposures_s = {1.0, 0.25, 0.0625};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
@@ -66,7 +75,7 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   }
 
   const std::vector<int> held_out = spread_holdout_views(n, 3);
-  auto obs_path = session_obsmap_file(session.value(), 32, 32);
+  auto obs_path = session_obsmap_file(session.value(), 64, 64);
   ASSERT_TRUE(obs_path) << obs_path.error().describe();
   auto obs = fitting::ObsMapReader::open(obs_path.value());
   ASSERT_TRUE(obs) << obs.error().describe();
@@ -77,33 +86,58 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   const fs::path map_path = session->layout().parameter_map_file("phong:1");
   fs::create_directories(map_path.parent_path());
   ASSERT_TRUE(map->write(map_path));
-  auto compared = compare_maps(session.value(), {map_path}, held_out);
-  if (!compared && compared.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display: " << compared.error().message;
-  ASSERT_TRUE(compared) << compared.error().describe();
-  double diffuse = 0, highlight = 0;
-  long long diffuse_n = 0, highlight_n = 0;
-  for (const ViewComparison& row : compared->rows) {
-    diffuse += row.diffuse.mean * row.diffuse.samples;
-    diffuse_n += row.diffuse.samples;
-    highlight += row.highlight.mean * row.highlight.samples;
-    highlight_n += row.highlight.samples;
-  }
-  ASSERT_GT(diffuse_n, 10000);
-  ASSERT_GT(highlight_n, 100);
-  diffuse /= diffuse_n;
-  highlight /= highlight_n;
+  // Mean |render - photo| over the held-out views' diffuse and highlight pixels, as `vdrig compare` counts them.
+  struct Figures {
+    double diffuse = 0, highlight = 0;
+    long long diffuse_n = 0, highlight_n = 0;
+  };
+  const auto compare = [&](const fs::path& map_file, const fs::path& out) -> Result<Figures> {
+    CompareOptions options;
+    options.out_dir = out;
+    auto compared = compare_maps(session.value(), {map_file}, held_out, options);
+    if (!compared) return compared.error();
+    Figures f;
+    for (const ViewComparison& row : compared->rows) {
+      f.diffuse += row.diffuse.mean * row.diffuse.samples;
+      f.diffuse_n += row.diffuse.samples;
+      f.highlight += row.highlight.mean * row.highlight.samples;
+      f.highlight_n += row.highlight.samples;
+    }
+    if (f.diffuse_n > 0) f.diffuse /= f.diffuse_n;
+    if (f.highlight_n > 0) f.highlight /= f.highlight_n;
+    return f;
+  };
+  auto figures = compare(map_path, dir.path() / "compare");
+  if (!figures && figures.error().code == ErrorCode::kUnsupported)
+    GTEST_SKIP() << "no OpenGL display: " << figures.error().message;
+  ASSERT_TRUE(figures) << figures.error().describe();
+  ASSERT_GT(figures->diffuse_n, 10000);
+  ASSERT_GT(figures->highlight_n, 100);
   std::printf(
       "%d views (capture %.1f s, all %.1f s); response from view %d; %d views posed by markers, worst %.3f "
       "deg %.2f mm; held out %zu views: mean |render - photo| %.2f diffuse, %.2f highlight (8-bit codes)\n",
-      n, capture_s, since_s(t0), response->view, cal->usable_views, worst_rot_deg, worst_t_mm, held_out.size(), diffuse,
-      highlight);
-  // Bounds: about 1.5x the figures measured (docs/blender.md).
-  EXPECT_GE(cal->usable_views, n / 2);
-  EXPECT_LT(worst_rot_deg, 0.15);
-  EXPECT_LT(worst_t_mm, 1.5);
-  EXPECT_LT(diffuse, 3.0);
-  EXPECT_LT(highlight, 20.0);
+      n, capture_s, since_s(t0), response->view, cal->usable_views, worst_rot_deg, worst_t_mm, held_out.size(),
+      figures->diffuse, figures->highlight);
+  // Bounds: 1.5x the figures measured (docs/blender.md): 17 of 31 views posed by their markers (3.8 px discs at this
+  // size), worst 0.20 deg and 4.6 mm; 3.93 codes diffuse, 18.5 highlight (phong:1 has no clearcoat lobe).
+  EXPECT_GE(cal->usable_views, 15);
+  EXPECT_LT(worst_rot_deg, 0.30);
+  EXPECT_LT(worst_t_mm, 7.0);
+  EXPECT_LT(figures->diffuse, 5.9);
+  EXPECT_LT(figures->highlight, 27.7);
+
+  // Sensitive: the same map with Kd 20 % too dark fails the diffuse bound.
+  fitting::ParameterMap darker = map.value();
+  for (const char* c : {"kd.R", "kd.G", "kd.B"})
+    for (int t = 0; t < darker.texels_t(); ++t)
+      for (int s = 0; s < darker.texels_s(); ++s) darker.at(c, s, t) *= 0.8f;
+  const fs::path darker_path = dir.path() / "darker" / "phong:1.exr";
+  fs::create_directories(darker_path.parent_path());
+  ASSERT_TRUE(darker.write(darker_path));
+  auto worse = compare(darker_path, dir.path() / "compare_darker");
+  ASSERT_TRUE(worse) << worse.error().describe();
+  std::printf("Kd x0.8: %.2f diffuse\n", worse->diffuse);
+  EXPECT_GT(worse->diffuse, 5.9);
 }
 
 }  // namespace
