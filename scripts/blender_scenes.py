@@ -1,5 +1,6 @@
 # Writes the .blend sample files of the Blender fidelity table (docs/blender.md, docs/results.md): each holds the mesh
-# "surface" (1 x 1 m in its local XY plane, facing +Z, with UVs) of one Principled BSDF material and the point light
+# "surface" (1 x 1 m in its local XY plane, facing +Z, with UVs) of one Principled BSDF material on a white board
+# (the central 0.8 x 0.8 m is the sample) and the point light
 # of vdrig's built-in scenes (1.5, 1.5, 2.0 m, irradiance 1 at the centre in vdrig's units), world black.
 #   blender --background --factory-startup --python scripts/blender_scenes.py -- OUT_DIR [NAME ...]
 # vdrig's own code.
@@ -65,9 +66,20 @@ MATERIALS = {
 def make(name, spec, path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0, 0, 0))  # 1 x 1 m, UVs over [0, 1]^2, normal +Z
-    surface = bpy.context.active_object
-    surface.name = "surface"
+    # The sample mounted on a board: 1 x 1 m in all (UVs over [0, 1]^2, normal +Z), the material over the central
+    # 0.8 x 0.8 m and white paper around it, where vdrig's black corner markers go (on a dark metal they would
+    # not stand out: the extrinsics need their contrast, on a real rig too).
+    edges = (-0.5, -0.4, 0.4, 0.5)
+    verts = [(x, y, 0.0) for y in edges for x in edges]
+    faces = [(j * 4 + i, j * 4 + i + 1, (j + 1) * 4 + i + 1, (j + 1) * 4 + i) for j in range(3) for i in range(3)]
+    mesh = bpy.data.meshes.new("surface")
+    mesh.from_pydata(verts, [], faces)
+    uv = mesh.uv_layers.new(name="UVMap")
+    for loop in mesh.loops:
+        x, y, _ = verts[loop.vertex_index]
+        uv.data[loop.index].uv = (x + 0.5, y + 0.5)
+    surface = bpy.data.objects.new("surface", mesh)
+    scene.collection.objects.link(surface)
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     tree = mat.node_tree
@@ -84,7 +96,15 @@ def make(name, spec, path):
         tangent.direction_type = "UV_MAP"
         tree.links.new(tangent.outputs["Tangent"], bsdf.inputs["Tangent"])
     set_inputs(bsdf, **spec)
-    surface.data.materials.append(mat)
+    paper = bpy.data.materials.new("board")
+    paper.use_nodes = True
+    paper.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.74, 0.7, 1)
+    paper.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.9
+    paper.node_tree.nodes["Principled BSDF"].inputs["Specular"].default_value = 0.2
+    mesh.materials.append(mat)
+    mesh.materials.append(paper)
+    for k, poly in enumerate(mesh.polygons):
+        poly.material_index = 0 if k == 4 else 1
     light = bpy.data.lights.new("light", "POINT")
     light.energy = LIGHT_W
     light.shadow_soft_size = 0.0

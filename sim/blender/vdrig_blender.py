@@ -4,6 +4,7 @@
 # it reads one JSON command a line on stdin and answers each with one JSON line on file descriptor N (Blender's own
 # stdout is left to Blender's messages). Commands:
 #   {"cmd": "setup", "scene": <vdrig scene JSON> | null, "blend": "<file.blend>" | "", "markers": true,
+#    "baked_kd": {"<patch index, -1 the background>": {"file": "<EXR>", "rect_mm": [x0, y0, x1, y1]}},
 #    "camera": {"width", "height", "fx", "fy", "cx", "cy"}, "samples": 16, "seed": 1, "threads": 2}
 #   {"cmd": "render", "camera_to_world": [16 numbers, row-major, metres, OpenCV camera axes], "lights": true,
 #    "out": "<file.exr>"}                 -> writes linear scene radiance (float RGB OpenEXR) in vdrig's units
@@ -47,10 +48,78 @@ def link(tree, a, b):
     tree.links.new(a, b)
 
 
-def make_material(m, index, base_dir):
+# vdrig's bump pattern (sim/src/scene.cpp, kBumpWaves): (a, b, w, phase) of three sinusoids; the shading normal is
+# normalize(-slope hx, -slope hy, 1) with hx = sum a w cos(k (a x + b y) + phase), hy likewise with b, k = 2 pi /
+# period, x and y in mm.
+BUMP_WAVES = ((1.0, 0.31, 0.45, 0.3), (-0.27, 1.13, 0.35, 1.7), (0.71, -0.77, 0.20, 4.1))
+
+
+def math_node(tree, op, a, b=None, c=None):
+    node = tree.nodes.new("ShaderNodeMath")
+    node.operation = op
+    for i, v in enumerate((a, b, c)):
+        if v is None:
+            continue
+        if isinstance(v, (int, float)):
+            node.inputs[i].default_value = v
+        else:
+            tree.links.new(v, node.inputs[i])
+    return node.outputs[0]
+
+
+def bump_normal(tree, m):
+    """The shading normal of vdrig's bump pattern from the shading point's position (world = surface frame)."""
+    pos = tree.nodes.new("ShaderNodeNewGeometry")
+    xyz = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(pos.outputs["Position"], xyz.inputs["Vector"])
+    k = 2 * math.pi / float(m.get("bump_period_mm", 6.0)) / MM  # per metre
+    slope = float(m.get("bump_slope", 0.0))
+    hx = hy = None
+    for a, b, w, phase in BUMP_WAVES:
+        t = math_node(tree, "MULTIPLY_ADD", xyz.outputs["X"], k * a,
+                      math_node(tree, "MULTIPLY_ADD", xyz.outputs["Y"], k * b, phase))
+        c = math_node(tree, "COSINE", t)
+        cx = math_node(tree, "MULTIPLY", c, -slope * a * w)
+        cy = math_node(tree, "MULTIPLY", c, -slope * b * w)
+        hx = cx if hx is None else math_node(tree, "ADD", hx, cx)
+        hy = cy if hy is None else math_node(tree, "ADD", hy, cy)
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    tree.links.new(hx, combine.inputs["X"])
+    tree.links.new(hy, combine.inputs["Y"])
+    combine.inputs["Z"].default_value = 1.0
+    norm = tree.nodes.new("ShaderNodeVectorMath")
+    norm.operation = "NORMALIZE"
+    tree.links.new(combine.outputs["Vector"], norm.inputs[0])
+    return norm.outputs["Vector"]
+
+
+def baked_kd(tree, baked):
+    """kd from an image vdrig baked over rect_mm (the printed glyphs: exact cells, nearest texel), addressed by the
+    shading point's position; the image's first row lies at the rectangle's largest y."""
+    x0, y0, x1, y1 = baked["rect_mm"]
+    pos = tree.nodes.new("ShaderNodeNewGeometry")
+    xyz = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(pos.outputs["Position"], xyz.inputs["Vector"])
+    u = math_node(tree, "MULTIPLY_ADD", xyz.outputs["X"], 1.0 / ((x1 - x0) * MM), -x0 / (x1 - x0))
+    v = math_node(tree, "MULTIPLY_ADD", xyz.outputs["Y"], 1.0 / ((y1 - y0) * MM), -y0 / (y1 - y0))
+    uv = tree.nodes.new("ShaderNodeCombineXYZ")
+    tree.links.new(u, uv.inputs["X"])
+    tree.links.new(v, uv.inputs["Y"])
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    img = bpy.data.images.load(baked["file"])
+    img.colorspace_settings.name = "Non-Color"
+    tex.image = img
+    tex.interpolation = "Closest"
+    tex.extension = "EXTEND"
+    tree.links.new(uv.outputs["Vector"], tex.inputs["Vector"])
+    return tex.outputs["Color"]
+
+
+def make_material(m, index, base_dir, baked=None):
     """A Blender material for a vdrig material: Diffuse BSDF (Lambert, exact) for kd, plus a GGX lobe: a Principled
     BSDF with metallic 1 (Schlick-like Fresnel from f0) for "ggx", a Glossy GGX of equal energy and width for a
-    Phong lobe (an approximation: Phong's lobe is not a microfacet lobe)."""
+    Phong lobe (an approximation: Phong's lobe is not a microfacet lobe). Bumped materials get vdrig's bump
+    pattern as their shading normal; printed ones the kd vdrig baked (`baked`)."""
     mat = bpy.data.materials.new("vdrig_%d_%s" % (index, m.get("name", "")))
     mat.use_nodes = True
     tree = mat.node_tree
@@ -59,8 +128,13 @@ def make_material(m, index, base_dir):
     out = tree.nodes.new("ShaderNodeOutputMaterial")
     diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Roughness"].default_value = 0.0  # Lambert
+    normal = bump_normal(tree, m) if float(m.get("bump_slope", 0.0)) > 0 else None
+    if normal is not None:
+        tree.links.new(normal, diffuse.inputs["Normal"])
     kd = rgb(m.get("kd"))
-    if m.get("kd_image"):
+    if baked is not None:
+        link(tree, baked_kd(tree, baked), diffuse.inputs["Color"])
+    elif m.get("kd_image"):
         tex = tree.nodes.new("ShaderNodeTexImage")
         path = m["kd_image"]
         if not os.path.isabs(path):
@@ -115,6 +189,8 @@ def make_material(m, index, base_dir):
             lobe.inputs["Roughness"].default_value = math.sqrt(math.sqrt(2.0 / (shininess + 2.0)))
             lobe_out = lobe.outputs["BSDF"]
     if lobe is not None:
+        if normal is not None:
+            tree.links.new(normal, lobe.inputs["Normal"])
         add = tree.nodes.new("ShaderNodeAddShader")
         link(tree, shader, add.inputs[0])
         link(tree, lobe_out, add.inputs[1])
@@ -177,7 +253,7 @@ def split_power(intensity, factor):
     return factor * peak, tuple(c / peak for c in intensity)
 
 
-def build_vdrig_scene(scene, base_dir, markers=True):
+def build_vdrig_scene(scene, base_dir, markers=True, baked=None):
     """The vdrig scene (sim/scene_file.hpp's JSON) as Blender objects: the surface is the plane z = 0 of Blender's
     world (the surface frame, metres), each patch and marker a face stacked a hundredth of a millimetre above the
     previous one, so later patches cover earlier ones as in vdrig."""
@@ -191,12 +267,21 @@ def build_vdrig_scene(scene, base_dir, markers=True):
                 return mats[i]
         raise ValueError("no material is named %r" % ref)
 
+    baked = baked or {}
+
+    def material_of(patch, ref):
+        """The patch's material; a printed one with the kd vdrig baked over this patch."""
+        if str(patch) not in baked:
+            return material(ref)
+        index = ref if isinstance(ref, int) else [m.get("name") for m in scene["materials"]].index(ref)
+        return make_material(scene["materials"][index], index, base_dir, baked[str(patch)])
+
     w, h = scene["width_mm"] * MM, scene["height_mm"] * MM
-    add_quad("surface", -w / 2, -h / 2, w / 2, h / 2, 0.0, mats[0])
+    add_quad("surface", -w / 2, -h / 2, w / 2, h / 2, 0.0, material_of(-1, 0))
     layer = 1
     for i, p in enumerate(scene.get("patches", [])):
         add_quad("patch_%d" % i, p["x0_mm"] * MM, p["y0_mm"] * MM, p["x1_mm"] * MM, p["y1_mm"] * MM, layer * LAYER_M,
-                 material(p["material"]))
+                 material_of(i, p["material"]))
         layer += 1
     if markers:
         for i, d in enumerate(scene.get("markers", [])):
@@ -255,7 +340,7 @@ def setup(cmd):
         load_blend(blend, cmd.get("markers", True), (sc or {}).get("markers", []))
     else:
         clear_scene()
-        build_vdrig_scene(sc, cmd.get("base_dir", "."), cmd.get("markers", True))
+        build_vdrig_scene(sc, cmd.get("base_dir", "."), cmd.get("markers", True), cmd.get("baked_kd"))
     scene = bpy.context.scene
     cam = cmd["camera"]
     width, height = int(cam["width"]), int(cam["height"])

@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -172,13 +173,63 @@ Status BlenderRenderer::ensure_running() {
   return setup();
 }
 
+namespace {
+
+/// The kd of a printed material baked over `rect` (mm) into an EXR for the driver: vdrig's glyphs are hashed cells
+/// that Blender's nodes cannot compute, so the texture holds them exactly (texels aligned with the cells, up to 4 a
+/// cell and 4096 a side; the driver samples the nearest). Returns the rectangle the image covers.
+Result<std::array<double, 4>> bake_printed_kd(const Scene& scene, int material, std::array<double, 4> rect,
+                                              const fs::path& file) {
+  const double u = scene.materials[material].print_cell_mm;
+  rect = {std::floor(rect[0] / u) * u, std::floor(rect[1] / u) * u, std::ceil(rect[2] / u) * u,
+          std::ceil(rect[3] / u) * u};
+  const double cells_x = std::round((rect[2] - rect[0]) / u), cells_y = std::round((rect[3] - rect[1]) / u);
+  const int k = std::max(1, std::min(4, static_cast<int>(4096 / std::max(cells_x, cells_y))));
+  const int w = static_cast<int>(cells_x) * k, h = static_cast<int>(cells_y) * k;
+  cv::Mat bgr(h, w, CV_32FC3);
+  const Vec3d base = scene.materials[material].kd;
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) {
+      const double x = rect[0] + (c + 0.5) * u / k, y = rect[3] - (r + 0.5) * u / k;
+      const SurfacePoint sp = scene.surface_at(x, y);
+      const Vec3d kd = sp.material == material ? sp.kd : base;
+      bgr.at<cv::Vec3f>(r, c) =
+          cv::Vec3f(static_cast<float>(kd.z()), static_cast<float>(kd.y()), static_cast<float>(kd.x()));
+    }
+  ExrImage image;
+  image.add_bgr(bgr);
+  VDRIG_TRY(write_exr(file, image, ExrPixelType::kHalf));
+  return rect;
+}
+
+}  // namespace
+
 Status BlenderRenderer::setup() {
+  // Printed materials: their kd baked per patch (and for the background, over the whole surface).
+  json baked = json::object();
+  if (settings_.blend.empty()) {
+    const Scene& sc = *scene_;
+    const auto bake = [&](int key, int material, std::array<double, 4> rect) -> Status {
+      if (!sc.materials[material].printed) return Status::ok();
+      const fs::path file = dir_ / ("kd_" + std::to_string(key + 1) + ".exr");
+      auto covered = bake_printed_kd(sc, material, rect, file);
+      if (!covered) return covered.error();
+      baked[std::to_string(key)] = {{"file", file.string()}, {"rect_mm", covered.value()}};
+      return Status::ok();
+    };
+    VDRIG_TRY(bake(-1, 0, {-sc.width_mm / 2, -sc.height_mm / 2, sc.width_mm / 2, sc.height_mm / 2}));
+    for (size_t i = 0; i < sc.patches.size(); ++i) {
+      const Patch& p = sc.patches[i];
+      VDRIG_TRY(bake(static_cast<int>(i), p.material, {p.x0_mm, p.y0_mm, p.x1_mm, p.y1_mm}));
+    }
+  }
   json camera = {{"width", pinhole_.width}, {"height", pinhole_.height}, {"fx", pinhole_.fx},
                  {"fy", pinhole_.fy},       {"cx", pinhole_.cx},         {"cy", pinhole_.cy}};
   json command = {{"cmd", "setup"},
                   {"scene", scene_to_json(*scene_)},
                   {"blend", settings_.blend.empty() ? std::string() : fs::absolute(settings_.blend).string()},
                   {"markers", settings_.markers},
+                  {"baked_kd", baked},
                   {"camera", camera},
                   {"samples", settings_.samples},
                   {"seed", settings_.seed},

@@ -118,13 +118,13 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
       "deg %.2f mm; held out %zu views: mean |render - photo| %.2f diffuse, %.2f highlight (8-bit codes)\n",
       n, capture_s, since_s(t0), response->view, cal->usable_views, worst_rot_deg, worst_t_mm, held_out.size(),
       figures->diffuse, figures->highlight);
-  // Bounds: 1.5x the figures measured (docs/blender.md): 17 of 31 views posed by their markers (3.8 px discs at this
-  // size), worst 0.20 deg and 4.6 mm; 3.93 codes diffuse, 18.5 highlight (phong:1 has no clearcoat lobe).
-  EXPECT_GE(cal->usable_views, 15);
-  EXPECT_LT(worst_rot_deg, 0.30);
-  EXPECT_LT(worst_t_mm, 7.0);
-  EXPECT_LT(figures->diffuse, 5.9);
-  EXPECT_LT(figures->highlight, 27.7);
+  // Bounds: 1.5x the figures measured (docs/blender.md): 18 of 31 views posed by their markers (3.8 px discs at this
+  // size), worst 0.095 deg and 3.0 mm; 4.40 codes diffuse, 20.3 highlight (phong:1 has no clearcoat lobe).
+  EXPECT_GE(cal->usable_views, 12);
+  EXPECT_LT(worst_rot_deg, 0.15);
+  EXPECT_LT(worst_t_mm, 4.6);
+  EXPECT_LT(figures->diffuse, 6.6);
+  EXPECT_LT(figures->highlight, 30.5);
 
   // Sensitive: the same map with Kd 20 % too dark fails the diffuse bound.
   fitting::ParameterMap darker = map.value();
@@ -137,7 +137,7 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   auto worse = compare(darker_path, dir.path() / "compare_darker");
   ASSERT_TRUE(worse) << worse.error().describe();
   std::printf("Kd x0.8: %.2f diffuse\n", worse->diffuse);
-  EXPECT_GT(worse->diffuse, 5.9);
+  EXPECT_GT(worse->diffuse, 6.6);
 }
 
 }  // namespace
