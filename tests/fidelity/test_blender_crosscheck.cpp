@@ -15,6 +15,7 @@
 #include "vdrig/sim/blender.hpp"
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene.hpp"
+#include "vdrig/sim/sim_rig.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::sim {
@@ -211,6 +212,45 @@ TEST(BlenderCrossCheck, FailuresAreTypedAndTheRendererRecovers) {
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument) << refused.error().describe();
   EXPECT_NE(refused.error().message.find("\"surface\""), std::string::npos) << refused.error().message;
+}
+
+}  // namespace
+}  // namespace vdrig::sim
+
+namespace vdrig::sim {
+namespace {
+
+// The camera section is validated before any device is built, every problem at once; a rig with the Blender camera
+// is built without starting Blender (it starts at the first capture), so this needs no Blender.
+TEST(BlenderSettingsCheck, SectionIsValidatedAndTheRigBuildsLazily) {
+  auto bad = BlenderSettings::parse(
+      {{"backend", "blender"}, {"sampels", 4}, {"samples", 0}, {"blend", "scene.json"}, {"timeout_s", -1}});
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().code, ErrorCode::kInvalidArgument);
+  for (const char* word : {"sampels", "samples", "blend", "timeout_s"})
+    EXPECT_NE(bad.error().message.find(word), std::string::npos) << word << ": " << bad.error().message;
+  auto good = BlenderSettings::parse({{"backend", "blender"}, {"samples", 8}});
+  ASSERT_TRUE(good) << good.error().describe();
+  EXPECT_EQ(good->effective()["samples"], 8);
+  EXPECT_EQ(good->effective()["executable"], "blender");
+
+  rig::BackendRegistry registry = simulator_and_hardware_backends();
+  nlohmann::json config = sim_rig_config({{"camera", {{"width", 64}, {"height", 48}}}});
+  config["camera"] = {{"backend", "blender"}, {"executable", "/nonexistent/blender"}};
+  auto rig = registry.make_rig(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  EXPECT_EQ(rig->camera->backend(), "blender");
+  auto info = rig->camera->info();
+  ASSERT_TRUE(info);
+  EXPECT_EQ(info->width, 64);
+  auto frame = rig->camera->capture();  // the first capture starts Blender: the missing executable is named
+  ASSERT_FALSE(frame);
+  EXPECT_EQ(frame.error().code, ErrorCode::kNotFound);
+  EXPECT_NE(frame.error().message.find("/nonexistent/blender"), std::string::npos) << frame.error().message;
+  config["camera"]["colour"] = "red";
+  auto refused = registry.make_rig(config);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("colour"), std::string::npos) << refused.error().message;
 }
 
 }  // namespace
