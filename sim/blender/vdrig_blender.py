@@ -384,7 +384,8 @@ def setup(cmd):
     scene.render.resolution_percentage = 100
     scene.render.pixel_aspect_x = 1.0
     scene.render.pixel_aspect_y = 1.0
-    scene.render.film_transparent = False
+    # Rays that miss everything are black, as in vdrig's renderer (an ambient world lights the surface, unseen).
+    scene.render.film_transparent = True
     scene.render.use_compositing = False
     scene.render.use_sequencer = False
     scene.render.image_settings.file_format = "OPEN_EXR"
