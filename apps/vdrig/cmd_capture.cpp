@@ -66,10 +66,15 @@ Status run(const CaptureArgs& a) {
   } else {
     if (a.out.empty()) return make_error(ErrorCode::kInvalidArgument, "--out DIR or --resume DIR is required");
     nlohmann::json rc;
-    if (a.rig == "sim") {
-      auto simulated = simulated_rig_config(a.scene);
+    if (a.rig == "sim" || a.rig == "blender") {
+      // --rig blender: the simulated stage with the Blender camera (docs/blender.md); a .blend scene is rendered
+      // from the file, on a 1000 mm surface with the built-in scenes' corner markers.
+      const bool blend = a.rig == "blender" && fs::path(a.scene).extension() == ".blend";
+      auto simulated = simulated_rig_config(blend ? "patchwork" : a.scene);
       if (!simulated) return simulated.error();
       rc = std::move(simulated.value());
+      if (a.rig == "blender") rc["camera"] = {{"backend", "blender"}};
+      if (blend) rc["camera"]["blend"] = fs::absolute(a.scene).string();
     } else {
       auto file = read_json_file(a.rig);
       if (!file) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + file.error().message);
@@ -152,8 +157,11 @@ Status run(const CaptureArgs& a) {
 CommandRegistrar reg([](CLI::App& root) {
   auto a = std::make_shared<CaptureArgs>();
   auto* cmd = root.add_subcommand("capture", "capture a session (or --resume an interrupted one)");
-  cmd->add_option("--rig", a->rig, "'sim' or a rig config JSON file")->capture_default_str();
-  cmd->add_option("--scene", a->scene, "simulator scene: a built-in name or a scene FILE.json")->capture_default_str();
+  cmd->add_option("--rig", a->rig, "'sim', 'blender' (the simulated stage, Cycles renders) or a rig config JSON file")
+      ->capture_default_str();
+  cmd->add_option("--scene", a->scene,
+                  "simulator scene: a built-in name, a scene FILE.json, or with --rig blender a FILE.blend")
+      ->capture_default_str();
   cmd->add_option("--scheme", a->scheme, "sampling scheme (docs/sampling.md)")->capture_default_str();
   cmd->add_option("--bracket", a->bracket, "fixed:E1,E2,... or auto[:CEIL[:FLOOR]][@X,Y,W,H]")->capture_default_str();
   cmd->add_option("--out", a->out, "new session folder");

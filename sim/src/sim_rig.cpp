@@ -7,6 +7,7 @@
 #include <limits>
 #include <thread>
 
+#include "blender_camera.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
@@ -442,6 +443,7 @@ void register_backends(rig::BackendRegistry& registry) {
       },
       backend_spec("camera"));
   registry.add_light("sim", factory<rig::Light, SimLight>("light"), backend_spec("light"));
+  register_blender_camera(registry, shared_world);  // the "blender" camera (docs/blender.md)
 }
 
 rig::BackendRegistry simulator_and_hardware_backends() {
