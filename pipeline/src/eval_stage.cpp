@@ -209,7 +209,7 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
   std::vector<ChannelSums> dense_sums(static_cast<size_t>(S) * T), session_sums(static_cast<size_t>(S) * T);
   // The Phong parameters of a texel, fitted and true, kept until the scale is known.
   struct PhongTexel {
-    Vec3d kd_fit, kd_true, ks_fit, ks_true;
+    Vec3d kd_fit = Vec3d::Zero(), kd_true = Vec3d::Zero(), ks_fit = Vec3d::Zero(), ks_true = Vec3d::Zero();
     double m = 0;
     bool has_lobe = false, valid = false;
   };
