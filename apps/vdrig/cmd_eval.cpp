@@ -53,7 +53,8 @@ const CommandRegistrar kEval([](CLI::App& root) {
       ->required();
   cmd->add_option("--session", args->session, "also evaluate over the directions this session's views sampled")
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--out", args->out, "write the per-texel error map (OpenEXR: rel_rms, rel_rms.session, material)");
+  cmd->add_option("--out", args->out,
+                  "write the per-texel error map (OpenEXR: rel_rms, rel_rms.scaled, rel_rms.session, material)");
   cmd->add_option("--directions", args->directions, "dense directions on the upper hemisphere")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));

@@ -43,6 +43,33 @@ namespace {
 
 constexpr float kOutside = -1.0f, kMixed = -2.0f;
 
+// Per-channel sums of map x truth, truth^2 and map^2 of a texel over a set of directions: its relative RMS after
+// any per-channel scale of the map follows from them (ChannelSums::relative_rms).
+struct ChannelSums {
+  Vec3d mt = Vec3d::Zero(), tt = Vec3d::Zero(), mm = Vec3d::Zero();
+
+  /// sqrt(sum_c sum_v (L_map / k_c - L_true)^2 / sum_c sum_v L_true^2); NaN when the truth is black.
+  double relative_rms(const Vec3d& k = Vec3d::Ones()) const {
+    const double truth2 = tt.sum();
+    if (!(truth2 > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    double err2 = 0.0;
+    for (int c = 0; c < 3; ++c) err2 += mm[c] / (k[c] * k[c]) - 2.0 * mt[c] / k[c] + tt[c];
+    return std::sqrt(std::max(err2, 0.0) / truth2);
+  }
+};
+
+ChannelSums channel_sums(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene, const Vec3d& p,
+                         const std::vector<Vec3d>& directions) {
+  ChannelSums out;
+  for (const Vec3d& v : directions) {
+    const Vec3d truth = scene.radiance(p, v), fit = map.evaluate(s, t, v);
+    out.mt += fit.cwiseProduct(truth);
+    out.tt += truth.cwiseProduct(truth);
+    out.mm += fit.cwiseProduct(fit);
+  }
+  return out;
+}
+
 // Relative RMS of the map at texel (s, t) against the truth at p over `directions`; NaN when the truth is black.
 double relative_rms(const fitting::ParameterMap& map, int s, int t, const sim::Scene& scene, const Vec3d& p,
                     const std::vector<Vec3d>& directions) {
@@ -178,9 +205,12 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
   const double half_w = map.width_mm() / S / 2.0, half_h = map.height_mm() / T / 2.0;
   const std::vector<Vec3d> dense = hemisphere_directions(options.dense_directions);
 
-  cv::Mat rel(T, S, CV_32F), rel_session(T, S, CV_32F), material(T, S, CV_32F);
+  cv::Mat material(T, S, CV_32F);
+  std::vector<ChannelSums> dense_sums(static_cast<size_t>(S) * T), session_sums(static_cast<size_t>(S) * T);
+  // The Phong parameters of a texel, fitted and true, kept until the scale is known.
   struct PhongTexel {
-    double kd = 0, ks = 0, m = 0;
+    Vec3d kd_fit = Vec3d::Zero(), kd_true = Vec3d::Zero(), ks_fit = Vec3d::Zero(), ks_true = Vec3d::Zero();
+    double m = 0;
     bool has_lobe = false, valid = false;
   };
   std::vector<PhongTexel> phong(static_cast<size_t>(S) * T);
@@ -191,29 +221,33 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
     std::vector<Vec3d> sampled;
     for (int t = rows.start; t < rows.end; ++t) {
       for (int s = 0; s < S; ++s) {
+        const size_t i = static_cast<size_t>(t) * S + s;
         const Vec3d p = texel_centre_mm(s, t, S, T, map.width_mm(), map.height_mm());
         material.at<float>(t, s) = texel_material(scene, p, half_w, half_h);
-        rel.at<float>(t, s) = static_cast<float>(relative_rms(map, s, t, scene, p, dense));
+        dense_sums[i] = channel_sums(map, s, t, scene, p, dense);
         if (with_session) {
           sampled.clear();
           for (const Vec3d& c : camera_centres)
             if (c.z() > p.z()) sampled.push_back((c - p).normalized());
-          rel_session.at<float>(t, s) = static_cast<float>(relative_rms(map, s, t, scene, p, sampled));
+          session_sums[i] = channel_sums(map, s, t, scene, p, sampled);
         }
         if (!phong_comparable) continue;
         const auto truth = scene.phong_truth(p);
         if (!truth || truth->kd.isZero()) continue;
         const std::vector<double> parameters = map.parameters(s, t);
-        PhongTexel& out = phong[static_cast<size_t>(t) * S + s];
+        PhongTexel& out = phong[i];
         out.valid = true;
-        out.kd = (model.diffuse_part(parameters) - truth->kd).norm() / truth->kd.norm();
+        out.kd_fit = model.diffuse_part(parameters);
+        out.kd_true = truth->kd;
         if (!truth->ks.isZero()) {
           out.has_lobe = true;
+          out.ks_true = truth->ks;
           const std::vector<fitting::LobeSummary> lobes = model.lobes(parameters);
           const fitting::LobeSummary* best = nullptr;
           for (const auto& lobe : lobes)
             if (!best || lobe.peak_rgb.sum() > best->peak_rgb.sum()) best = &lobe;
-          out.ks = best ? (best->peak_rgb - truth->ks).norm() / truth->ks.norm() : 1.0;
+          // No lobe at all: Ks counts as entirely wrong (relative error 1), whatever the scale.
+          out.ks_fit = best ? best->peak_rgb : Vec3d::Zero();
           out.m = best ? std::abs(best->phong_exponent - truth->shininess) / truth->shininess : 1.0;
         }
       }
@@ -225,43 +259,100 @@ Result<EvalReport> evaluate_map(const fitting::ParameterMap& map, const sim::Sce
     }
   });
 
+  // The scale per channel: the median over the materials of each material's median texel ratio map / truth (each
+  // texel's least-squares ratio over the dense directions). A material votes once, so one large material the model
+  // fits badly (a printed texture, a bumped metal) does not set the units of all the others.
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  Vec3d scale = Vec3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> per_material;
+    for (size_t m = 0; m < scene.materials.size(); ++m) {
+      std::vector<double> ratios;
+      for (int t = 0; t < T; ++t)
+        for (int s = 0; s < S; ++s) {
+          const ChannelSums& sums = dense_sums[static_cast<size_t>(t) * S + s];
+          if (material.at<float>(t, s) == static_cast<float>(m) && sums.tt[c] > 0.0)
+            ratios.push_back(sums.mt[c] / sums.tt[c]);
+        }
+      if (!ratios.empty()) per_material.push_back(median(std::move(ratios)));
+    }
+    scale[c] = median(std::move(per_material));
+  }
+  // A channel without a usable ratio (black in the truth everywhere, or a map that is zero) is left unscaled.
+  const Vec3d k = scale.unaryExpr([](double x) { return std::isfinite(x) && x > 0.0 ? x : 1.0; });
+
+  cv::Mat rel(T, S, CV_32F), rel_scaled(T, S, CV_32F), rel_session(T, S, CV_32F);
+  for (int t = 0; t < T; ++t)
+    for (int s = 0; s < S; ++s) {
+      const size_t i = static_cast<size_t>(t) * S + s;
+      rel.at<float>(t, s) = static_cast<float>(dense_sums[i].relative_rms());
+      rel_scaled.at<float>(t, s) = static_cast<float>(dense_sums[i].relative_rms(k));
+      if (with_session) rel_session.at<float>(t, s) = static_cast<float>(session_sums[i].relative_rms());
+    }
+
   EvalReport report;
   report.model = map.model().name();
   report.dense_directions = options.dense_directions;
   report.session_views = static_cast<int>(camera_centres.size());
+  report.scale = scale;
   report.warnings = scene_mismatch_warnings(map, scene, options.session_dir);
   report.error_map.add("rel_rms", rel);
+  report.error_map.add("rel_rms.scaled", rel_scaled);
   if (with_session) report.error_map.add("rel_rms.session", rel_session);
   report.error_map.add("material", material);
   report.error_map.string_attributes["vdrig.eval_scene"] = scene.name;
   report.error_map.string_attributes["vdrig.eval_model"] = report.model;
+  const auto relative = [](const Vec3d& fit, const Vec3d& truth) { return (fit - truth).norm() / truth.norm(); };
   for (size_t m = 0; m < scene.materials.size(); ++m) {
-    std::vector<double> dense_values, session_values;
-    double kd = 0, ks = 0, shininess = 0;
+    std::vector<double> dense_values, dense_scaled, session_values, session_scaled;
+    PhongParameterErrors sum, sum_scaled;
     int n_phong = 0, n_lobe = 0, texels = 0;
     for (int t = 0; t < T; ++t)
       for (int s = 0; s < S; ++s) {
         if (material.at<float>(t, s) != static_cast<float>(m)) continue;
         ++texels;
-        if (std::isfinite(rel.at<float>(t, s))) dense_values.push_back(rel.at<float>(t, s));
-        if (with_session && std::isfinite(rel_session.at<float>(t, s)))
+        const size_t i = static_cast<size_t>(t) * S + s;
+        if (std::isfinite(rel.at<float>(t, s))) {
+          dense_values.push_back(rel.at<float>(t, s));
+          dense_scaled.push_back(rel_scaled.at<float>(t, s));
+        }
+        if (with_session && std::isfinite(rel_session.at<float>(t, s))) {
           session_values.push_back(rel_session.at<float>(t, s));
-        const PhongTexel& pt = phong[static_cast<size_t>(t) * S + s];
+          session_scaled.push_back(session_sums[i].relative_rms(k));
+        }
+        const PhongTexel& pt = phong[i];
         if (!pt.valid) continue;
-        ++n_phong, kd += pt.kd;
-        if (pt.has_lobe) ++n_lobe, ks += pt.ks, shininess += pt.m;
+        ++n_phong;
+        sum.kd_rel += relative(pt.kd_fit, pt.kd_true);
+        sum_scaled.kd_rel += relative(pt.kd_fit.cwiseQuotient(k), pt.kd_true);
+        if (!pt.has_lobe) continue;
+        ++n_lobe;
+        sum.ks_rel += relative(pt.ks_fit, pt.ks_true);
+        sum_scaled.ks_rel += relative(pt.ks_fit.cwiseQuotient(k), pt.ks_true);
+        sum.shininess_rel += pt.m;
+        sum_scaled.shininess_rel += pt.m;
       }
     if (texels == 0) continue;
     MaterialEval e;
     e.name = scene.materials[m].name;
     e.texels = texels;
     e.dense = stats(dense_values);
+    e.dense_scaled = stats(dense_scaled);
     e.has_session = with_session;
-    if (with_session) e.session = stats(session_values);
+    if (with_session) e.session = stats(session_values), e.session_scaled = stats(session_scaled);
     if (n_phong > 0) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
+      const auto mean = [&](const PhongParameterErrors& x) {
+        return PhongParameterErrors{x.kd_rel / n_phong, n_lobe ? x.ks_rel / n_lobe : nan,
+                                    n_lobe ? x.shininess_rel / n_lobe : nan};
+      };
       e.has_phong = true;
-      e.phong = {kd / n_phong, n_lobe ? ks / n_lobe : nan, n_lobe ? shininess / n_lobe : nan};
+      e.phong = mean(sum);
+      e.phong_scaled = mean(sum_scaled);
     }
     report.materials.push_back(e);
   }
@@ -289,11 +380,25 @@ nlohmann::json EvalReport::to_json() const {
       row["ks_rel_error"] = number(m.phong.ks_rel);
       row["shininess_rel_error"] = number(m.phong.shininess_rel);
     }
+    // After the scale (EvalReport::scale): the figures a calibration from images can be judged by.
+    row["scaled_rel_rms_mean"] = number(m.dense_scaled.mean);
+    row["scaled_rel_rms_p95"] = number(m.dense_scaled.p95);
+    row["scaled_rel_rms_p99"] = number(m.dense_scaled.p99);
+    row["scaled_rel_rms_max"] = number(m.dense_scaled.max);
+    if (m.has_session) {
+      row["scaled_session_rel_rms_mean"] = number(m.session_scaled.mean);
+      row["scaled_session_rel_rms_p95"] = number(m.session_scaled.p95);
+    }
+    if (m.has_phong) {
+      row["scaled_kd_rel_error"] = number(m.phong_scaled.kd_rel);
+      row["scaled_ks_rel_error"] = number(m.phong_scaled.ks_rel);
+    }
     rows.push_back(row);
   }
   return {{"model", model},
           {"dense_directions", dense_directions},
           {"session_views", session_views},
+          {"scale", {number(scale[0]), number(scale[1]), number(scale[2])}},
           {"materials", rows},
           {"warnings", warnings}};
 }
@@ -315,10 +420,18 @@ std::string EvalReport::table() const {
   std::string out = "model " + model + ", relative RMS in % over " + std::to_string(dense_directions) + " directions" +
                     (session ? " and the session's " + std::to_string(session_views) + " views" : "") + "\n";
   char line[256];
+  std::snprintf(line, sizeof line,
+                "scale map/truth (R G B) %.4f %.4f %.4f: units a response recovered from images cannot know;\n"
+                "the sc. columns divide the map by it (a wrong shape or colour still shows there)\n",
+                scale[0], scale[1], scale[2]);
+  out += line;
   std::snprintf(line, sizeof line, "%-20s %7s %9s %9s %9s %9s", "material", "texels", "mean", "p95", "p99", "max");
   out += line;
   if (session) std::snprintf(line, sizeof line, "  %9s %9s", "sess.mean", "sess.p95"), out += line;
   if (phong) std::snprintf(line, sizeof line, "  %9s %9s %9s", "Kd err", "Ks err", "m err"), out += line;
+  std::snprintf(line, sizeof line, "  %9s %9s", "sc.mean", "sc.p95"), out += line;
+  if (session) std::snprintf(line, sizeof line, " %9s", "sc.sess"), out += line;
+  if (phong) std::snprintf(line, sizeof line, " %9s %9s", "sc.Kd", "sc.Ks"), out += line;
   out += "\n";
   for (const MaterialEval& m : materials) {
     std::snprintf(line, sizeof line, "%-20.20s %7d", m.name.c_str(), m.texels);
@@ -330,6 +443,9 @@ std::string EvalReport::table() const {
       else
         out += " " + pct(NAN) + pct(NAN) + pct(NAN);
     }
+    out += " " + pct(m.dense_scaled.mean) + pct(m.dense_scaled.p95);
+    if (session) out += pct(m.session_scaled.mean);
+    if (phong) out += pct(m.has_phong ? m.phong_scaled.kd_rel : NAN) + pct(m.has_phong ? m.phong_scaled.ks_rel : NAN);
     out += "\n";
   }
   return out;

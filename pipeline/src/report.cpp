@@ -588,7 +588,8 @@ std::string eval_section(const ReportData& d) {
         "<div class=\"scroll\"><table class=\"eval\"><thead><tr><th>material</th><th>texels</th><th>mean %</th>"
         "<th>p95 %</th><th>p99 %</th><th>max %</th>" +
         std::string(session ? "<th>at the views: mean %</th><th>p95 %</th>" : "") +
-        (phong ? "<th>Kd err %</th><th>Ks err %</th><th>m err %</th>" : "") + "</tr></thead><tbody>\n";
+        (phong ? "<th>Kd err %</th><th>Ks err %</th><th>m err %</th>" : "") +
+        "<th>after the scale: mean %</th></tr></thead><tbody>\n";
     for (const MaterialEval& m : report->materials) {
       body += "<tr><td>" + escape_html(m.name) + "</td><td>" + std::to_string(m.texels) + "</td>";
       for (double x : {m.dense.mean, m.dense.p95, m.dense.p99, m.dense.max}) body += "<td>" + pct(x) + "</td>";
@@ -596,9 +597,16 @@ std::string eval_section(const ReportData& d) {
       if (phong)
         for (double x : {m.phong.kd_rel, m.phong.ks_rel, m.phong.shininess_rel})
           body += "<td>" + (m.has_phong ? pct(x) : std::string("&#8211;")) + "</td>";
-      body += "</tr>\n";
+      body += "<td>" + pct(m.dense_scaled.mean) + "</td></tr>\n";
     }
     body += "</tbody></table></div>\n";
+    {
+      char scale[160];
+      std::snprintf(scale, sizeof scale, "%.4f %.4f %.4f", report->scale[0], report->scale[1], report->scale[2]);
+      body += "<p>Scale map / truth (R G B): " + std::string(scale) +
+              ", units a response curve recovered from the images cannot know; the last column divides the map by "
+              "it (eval_stage.hpp).</p>\n";
+    }
     if (report->materials.empty()) body += missing("texels entirely on one material (the map is too coarse)");
     for (const std::string& warning : report->warnings) body += "<p class=\"missing\">" + escape_html(warning) + "</p>";
     if (const int rel = report->error_map.find("rel_rms"); rel >= 0) {

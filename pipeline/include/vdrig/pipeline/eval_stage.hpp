@@ -8,10 +8,19 @@
 // per-material statistics. Where the truth is of Phong form (Scene::phong_truth) and the map's model has a diffuse
 // part and lobes (ReflectanceModel::has_diffuse_part, ::lobes: Phong, or any model that describes itself so), the
 // Phong parameters are compared too: Kd with the diffuse part, Ks and m with the strongest lobe's peak and exponent.
+//
+// The unknown scale: a response curve recovered from the images (Debevec-Malik, `vdrig calib response`) fixes each
+// channel's radiance only up to a factor, so a map fitted on a session calibrated from its images is in other units
+// than the simulator's truth (1.1x here), and every absolute figure carries that factor as an error no calibration
+// from images can remove. The report therefore also gives the figures after one factor per channel (EvalReport::
+// scale, map / truth: the median over the materials of each material's median texel ratio, a texel's ratio being its
+// least-squares one over the dense directions) and that factor itself: a map right up to units scores as the truth, a
+// wrong shape, colour of one material or lobe still shows.
 #pragma once
 
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -87,6 +96,10 @@ struct MaterialEval {
   RelativeRmsStats session;  // when has_session
   bool has_phong = false;
   PhongParameterErrors phong;  // when has_phong
+  /// The same figures with the map divided by EvalReport::scale (m does not depend on it).
+  RelativeRmsStats dense_scaled;
+  RelativeRmsStats session_scaled;    // when has_session
+  PhongParameterErrors phong_scaled;  // when has_phong
 };
 
 struct EvalReport {
@@ -94,10 +107,14 @@ struct EvalReport {
   int dense_directions = 0;
   int session_views = 0;                // 0 without a session
   std::vector<MaterialEval> materials;  // materials with at least one texel, in the scene's order
+  /// Map radiance / true radiance per channel (R, G, B), the units a calibration from images cannot know (see
+  /// the top of this file); 1 with the simulator's own response. NaN when no texel lies on a single material.
+  Vec3d scale = Vec3d::Constant(std::numeric_limits<double>::quiet_NaN());
   /// What makes the figures doubtful, for the user: the map was fitted from (or evaluated over) a session captured
   /// from another scene than the one it is evaluated against (the errors then measure the scenes' difference).
   std::vector<std::string> warnings;
-  /// One float channel per texel: "rel_rms" (dense), "rel_rms.session" (with a session) and "material" (the scene
+  /// One float channel per texel: "rel_rms" (dense), "rel_rms.scaled" (dense, after `scale`), "rel_rms.session" (with
+  /// a session) and "material" (the scene
   /// material index at the texel centre; -1 outside the surface, -2 on a texel that touches several materials).
   ExrImage error_map;
 
