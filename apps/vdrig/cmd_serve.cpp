@@ -45,6 +45,7 @@ Status serve(const ServeArgs& a) {
     if (!radiance) return radiance.error();
     return encode_png(viewer::tone_map(radiance.value(), gamma));
   };
+  options.viewer_texel = pipeline::web_texel_svg;
 #endif
   // SIGINT and SIGTERM are taken by a thread of their own (sigwait), blocked before any server thread starts so
   // that every thread inherits the mask: stopping the server is not async-signal-safe.

@@ -253,10 +253,12 @@ async function refreshSessions() {
       link.href = '/files/' + encodeURIComponent(s.session) + '/manifest.json';
       link.textContent = 'manifest';
       const files = cell(tr, link);
-      // A complete session's results: the report `vdrig report S --out S/report.html` wrote, and its maps in WebGL2.
+      // A complete session's results: the report `vdrig report S --out S/report.html` wrote (when it is there: the
+      // server says so in `report`), and its maps in WebGL2.
       if (s.views_done >= s.views_total) {
-        for (const [text, href] of [['report', '/report/' + encodeURIComponent(s.session)],
-                                    ['viewer', '/viewer?session=' + encodeURIComponent(s.session)]]) {
+        const results = [['viewer', '/viewer?session=' + encodeURIComponent(s.session)]];
+        if (s.report) results.unshift(['report', '/report/' + encodeURIComponent(s.session)]);
+        for (const [text, href] of results) {
           const a = document.createElement('a');
           a.href = href;
           a.textContent = text;

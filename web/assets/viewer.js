@@ -2,7 +2,9 @@
 // `vdrig view` compiles it (viewer::model_glsl) and the arithmetic of viewer/src/surface_renderer.cpp's shader:
 // pinhole + Brown distortion, ray onto the surface plane, bilinear blend of the model at the four nearest texel
 // centres, sub-samples per pixel axis, then y = 1 - exp(-gamma x) and sRGB. Orbit, the captured views, and at a
-// captured view the photograph or |render - photo| × 4.
+// captured view the photograph or |render - photo| × 4. A click (not a drag) on the surface shows the texel
+// inspector's curve plot of the texel under it (viewer::pick_texel's arithmetic; the plot is the server's SVG of
+// viewer::curve_figure, shown in an <img>).
 'use strict';
 
 const $ = (id) => document.getElementById(id);
@@ -129,6 +131,78 @@ function orbitPose(azDeg, zenDeg, dist) {
   return { R: [-sa, ca, 0, cz * ca, cz * sa, -sz, -d[0], -d[1], -d[2]], centre: d.map((v) => v * dist) };
 }
 
+function distortJs(u, k) {
+  const r2 = u[0] * u[0] + u[1] * u[1];
+  const radial = 1 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]));
+  return [u[0] * radial + 2 * k[2] * u[0] * u[1] + k[3] * (r2 + 2 * u[0] * u[0]),
+          u[1] * radial + k[2] * (r2 + 2 * u[1] * u[1]) + 2 * k[3] * u[0] * u[1]];
+}
+
+// viewer::pick_texel: the texel whose footprint the ray through camera pixel (x, y) (OpenCV's convention: the
+// centre of the top-left pixel is 0, 0) meets on the surface plane, or null when it misses the surface.
+function pickTexel(x, y, pose) {
+  const c = scene.camera;
+  const d = [(x - c.cx) / c.fx, (y - c.cy) / c.fy];
+  let u = d.slice();
+  for (let i = 0; i < 40; ++i) {
+    const f = distortJs(u, c.dist);
+    const step = [f[0] - d[0], f[1] - d[1]];
+    u = [u[0] - step[0], u[1] - step[1]];
+    if (step[0] * step[0] + step[1] * step[1] < 1e-16) break;
+  }
+  const n = Math.hypot(u[0], u[1], 1);
+  const rc = [u[0] / n, u[1] / n, 1 / n], R = pose.R;
+  const ray = [0, 1, 2].map((i) => R[i] * rc[0] + R[3 + i] * rc[1] + R[6 + i] * rc[2]);
+  if (Math.abs(ray[2]) < 1e-12) return null;
+  const along = -pose.centre[2] / ray[2];
+  if (along <= 0) return null;
+  const px = pose.centre[0] + along * ray[0], py = pose.centre[1] + along * ray[1];
+  const fu = (px + 0.5 * scene.size_mm[0]) / scene.size_mm[0], fv = (py + 0.5 * scene.size_mm[1]) / scene.size_mm[1];
+  if (fu < 0 || fu >= 1 || fv < 0 || fv >= 1) return null;
+  return [Math.min(scene.texels[0] - 1, Math.floor(fu * scene.texels[0])),
+          Math.min(scene.texels[1] - 1, Math.floor(fv * scene.texels[1]))];
+}
+
+function currentPose() {
+  const choice = $('view').value;
+  const view = choice === 'orbit' ? null : scene.views.find((v) => String(v.index) === choice);
+  return view ? { R: view.R, centre: view.centre } : orbitPose(orbit.az, orbit.zen, orbit.dist);
+}
+
+// The inspector's plot of the texel under a click, as the server's SVG in an <img> (an image's scripts never run);
+// on a refusal the server's JSON reason is shown as text.
+function inspectAt(clientX, clientY) {
+  if (!scene) return;
+  const canvas = $('gl'), rect = canvas.getBoundingClientRect();
+  const x = (clientX - rect.left) * canvas.width / rect.width - 0.5;
+  const y = (clientY - rect.top) * canvas.height / rect.height - 0.5;
+  const texel = pickTexel(x, y, currentPose());
+  const plot = $('texel-plot'), caption = $('texel-caption');
+  if (!texel) {
+    caption.textContent = 'no texel there: click on the surface';
+    return;
+  }
+  const [s, t] = texel;
+  const src = `/api/viewer/texel?session=${encodeURIComponent(session)}&map=${encodeURIComponent(scene.map)}` +
+              `&s=${s}&t=${t}`;
+  caption.textContent = `texel ${s},${t} of ${scene.map}: loading…`;
+  plot.onload = () => {
+    caption.textContent = `texel ${s},${t} of ${scene.map}: observations (circles; crosses held out) within 10° ` +
+                          'of the great circle through the normal and the peak, over the model';
+    plot.dataset.texel = `${s},${t}`;
+    plot.dataset.pixel = `${x},${y}`;
+    plot.hidden = false;
+  };
+  plot.onerror = async () => {
+    plot.hidden = true;
+    delete plot.dataset.texel;
+    const r = await fetch(src, { credentials: 'same-origin' }).catch(() => null);
+    const body = r ? await r.json().catch(() => ({})) : {};
+    caption.textContent = `texel ${s},${t}: ` + ((body.code ? body.code + ': ' : '') + (body.error || 'no plot'));
+  };
+  plot.src = src;
+}
+
 async function loadScene(map) {
   const q = 'session=' + encodeURIComponent(session) + (map ? '&map=' + encodeURIComponent(map) : '');
   const r = await fetch('/api/viewer/scene?' + q, { credentials: 'same-origin' });
@@ -241,11 +315,16 @@ function fromSliders() {
 $('map').addEventListener('change', () => loadScene($('map').value).catch((e) => fail(String(e))));
 for (const id of ['view', 'display', 'gamma', 'samples']) $(id).addEventListener('change', () => draw());
 for (const id of ['azimuth', 'zenith', 'distance']) $(id).addEventListener('input', fromSliders);
-let drag = null;
-$('gl').addEventListener('pointerdown', (e) => { drag = [e.clientX, e.clientY]; });
+let drag = null, press = null;
+$('gl').addEventListener('pointerdown', (e) => { drag = press = [e.clientX, e.clientY]; });
 window.addEventListener('pointerup', () => { drag = null; });
+// A click that did not move (a drag orbits): the texel under it.
+$('gl').addEventListener('click', (e) => {
+  if (press && Math.hypot(e.clientX - press[0], e.clientY - press[1]) <= 3) inspectAt(e.clientX, e.clientY);
+});
 $('gl').addEventListener('pointermove', (e) => {
   if (!drag) return;
+  if (Math.hypot(e.clientX - press[0], e.clientY - press[1]) <= 3) return;  // still a click
   $('azimuth').value = String(Number($('azimuth').value) - (e.clientX - drag[0]) * 0.5);
   $('zenith').value = String(Number($('zenith').value) + (e.clientY - drag[1]) * 0.3);
   drag = [e.clientX, e.clientY];

@@ -195,6 +195,34 @@ struct Server::Impl {
     send_json(res, r.value("ok", false) ? 200 : http_status_of(r.value("code", "")), r);
   }
 
+  /// Whether SESSION/FILE is a regular file, neither the session folder nor the file being a link (as
+  /// read_session_file would open it); for the list's links, so that a session without its report links none.
+  bool session_file_exists(const std::string& session, const std::string& file) const {
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return false;
+    const int dir = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (dir < 0) return false;
+    struct stat st {};
+    const bool regular = ::fstatat(dir, file.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISREG(st.st_mode);
+    ::close(dir);
+    return regular;
+  }
+
+  /// The daemon's list of sessions, each sound one with "report": whether its report.html is there to be served.
+  void serve_sessions(httplib::Response& res) {
+    auto reply = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
+    if (!reply) {
+      const bool late = reply.error().code == ErrorCode::kTimeout;
+      send_error(res, late ? 504 : 502, capture::wire_code(reply.error().code), reply.error().message);
+      return;
+    }
+    json r = std::move(reply).value();
+    if (r.contains("sessions") && r["sessions"].is_array())
+      for (auto& s : r["sessions"])
+        if (s.is_object() && !s.value("damaged", false))
+          s["report"] = session_file_exists(s.value("session", ""), "report.html");
+    send_json(res, r.value("ok", false) ? 200 : http_status_of(r.value("code", "")), r);
+  }
+
   /// The JSON object body of a POST with only string fields among `fields`; nullopt (and a 400 sent) otherwise.
   std::optional<json> string_fields(const httplib::Request& req, httplib::Response& res,
                                     const std::vector<std::string>& fields) {
@@ -352,6 +380,27 @@ struct Server::Impl {
     res.set_content(png.value(), "image/png");
   }
 
+  /// The texel inspector's plot of a texel of a map (the curve `vdrig view` draws on a click), as SVG: by session
+  /// name, map name and texel indices (decimal, else 400; outside the map 400), served as an image (the page shows it
+  /// in an <img>, where an SVG's scripts do not run).
+  void serve_viewer_texel(const httplib::Request& req, httplib::Response& res) {
+    if (!options.viewer_texel)
+      return send_error(res, 501, "unsupported", "this vdrig is built without the post-capture modules");
+    const std::string map = req.get_param_value("map");
+    if (!valid_map_name(map)) return send_error(res, 400, "bad_request", "a map name is [A-Za-z0-9:._-]");
+    const int s = parse_index(req.get_param_value("s")), t = parse_index(req.get_param_value("t"));
+    if (s < 0 || t < 0) return send_error(res, 400, "bad_request", "s and t must be texel indices (decimal, >= 0)");
+    auto dir = listed_session_dir(req.get_param_value("session"));
+    if (!dir) return send_failure(res, dir.error());
+    auto svg = options.viewer_texel(dir.value(), map, s, t);
+    if (!svg) {
+      const ErrorCode code = svg.error().code;
+      const int status = code == ErrorCode::kNotFound ? 404 : code == ErrorCode::kInvalidArgument ? 400 : 500;
+      return send_error(res, status, capture::wire_code(code), svg.error().message);
+    }
+    res.set_content(svg.value(), "image/svg+xml");
+  }
+
   /// A session's report (`vdrig report S --out S/report.html`): the page vdrig wrote, with its inline styles and
   /// scripts, served sandboxed (an opaque origin: its scripts cannot use the console's cookie or API).
   void serve_report(const std::string& session, httplib::Response& res) {
@@ -455,9 +504,7 @@ struct Server::Impl {
     http.Get("/api/status", [this](const httplib::Request&, httplib::Response& res) {
       relay_reply(res, {{"cmd", "status"}});
     });
-    http.Get("/api/sessions", [this](const httplib::Request&, httplib::Response& res) {
-      relay_reply(res, {{"cmd", "list-sessions"}});
-    });
+    http.Get("/api/sessions", [this](const httplib::Request&, httplib::Response& res) { serve_sessions(res); });
     http.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) { serve_events(res); });
     http.Get(R"(/files/([^/]+)/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
       const int tail = req.has_param("tail") ? std::min(parse_index(req.get_param_value("tail")), 1000) : 0;
@@ -468,6 +515,8 @@ struct Server::Impl {
              [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_scene(req, res); });
     http.Get("/api/viewer/photo",
              [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_photo(req, res); });
+    http.Get("/api/viewer/texel",
+             [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_texel(req, res); });
     http.Get(R"(/report/([^/]+))",
              [this](const httplib::Request& req, httplib::Response& res) { serve_report(req.matches[1], res); });
     http.Get("/viewer", [this](const httplib::Request&, httplib::Response& res) {

@@ -27,4 +27,10 @@ Result<WebScene> web_scene(const std::filesystem::path& session_dir, const std::
 /// View `view`'s merged HDR photograph (SESSION/hdr/), BGR CV_32FC3 radiance.
 Result<cv::Mat> web_photo(const std::filesystem::path& session_dir, int view);
 
+/// The texel inspector's curve plot of texel (s, t) of map `map_name` (as web_scene) as SVG: viewer::curve_figure of
+/// viewer::inspect_texel over the texel's observations in SESSION/obsmap/SxT.vdobs, held-out views marked, the plot
+/// `vdrig view` draws on a click. kInvalidArgument for a texel outside the map, kNotFound for a missing map or
+/// observation map (never built here: a GET writes nothing).
+Result<std::string> web_texel_svg(const std::filesystem::path& session_dir, const std::string& map_name, int s, int t);
+
 }  // namespace vdrig::pipeline

@@ -34,6 +34,10 @@ struct ViewerScene {
 using ViewerSceneFn = std::function<Result<ViewerScene>(const std::filesystem::path& session_dir, const std::string&)>;
 /// A captured view's HDR photograph tone-mapped (y = 1 - exp(-gamma x), sRGB) as PNG bytes.
 using ViewerPhotoFn = std::function<Result<std::string>(const std::filesystem::path& session_dir, int view, double)>;
+/// The texel inspector's curve plot of texel (s, t) of a map (name checked as above) as SVG (pipeline::web_texel_svg);
+/// kInvalidArgument for a texel outside the map, kNotFound for a missing map or observation map.
+using ViewerTexelFn =
+    std::function<Result<std::string>(const std::filesystem::path& session_dir, const std::string&, int s, int t)>;
 
 struct ServerOptions {
   std::filesystem::path runtime_dir;  ///< the daemon's folder: runtime_dir/vdrigd.sock
@@ -50,6 +54,7 @@ struct ServerOptions {
   double daemon_timeout_s = 30;  ///< a daemon reply (`start` plans the route first) or it is 504
   ViewerSceneFn viewer_scene;    ///< unset: /api/viewer/* answer 501
   ViewerPhotoFn viewer_photo;
+  ViewerTexelFn viewer_texel;
 };
 
 /// 24 bytes from the system's random source as 48 hex digits.
