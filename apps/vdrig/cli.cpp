@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -88,10 +89,11 @@ std::vector<std::string> flag_suggestions(const CLI::App& app, const std::vector
 }  // namespace vdrig::app
 
 int vdrig::app::subcommand_index(int argc, char** argv) {
-  // The root's only option with a value is --log-level (run_cli); anything else ends the root's options.
+  // The root's only option with a value is --log-level (run_cli); anything else ends the root's options. C strings
+  // only: vdrig calls this before the C++ runtime's initialisers have run (main.cpp).
   int i = 1;
-  while (i < argc && (std::string(argv[i]) == "--log-level" || std::string(argv[i]).rfind("--log-level=", 0) == 0))
-    i += std::string(argv[i]) == "--log-level" ? 2 : 1;
+  while (i < argc && (std::strcmp(argv[i], "--log-level") == 0 || std::strncmp(argv[i], "--log-level=", 12) == 0))
+    i += std::strcmp(argv[i], "--log-level") == 0 ? 2 : 1;
   return std::min(i, argc);
 }
 
