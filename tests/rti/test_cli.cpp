@@ -41,7 +41,7 @@ TEST(RtiCli, ThinExecutableLinksOnlyWhatRtiNeedsAndHasVdrigsHelp) {
   ASSERT_EQ(ldd.exit_code, 0) << ldd.out << ldd.err;
   EXPECT_NE(ldd.out.find("libopencv_core"), std::string::npos) << ldd.out;  // ldd did list the libraries
   for (const char* banned : {"libcamera", "libmpi", "libssl", "libcrypto", "libGL.so", "libglfw", "libmodbus",
-                             "libgpiod", "libusb", "libopencv_calib3d"})
+                             "libgpiod", "libusb", "libopencv_calib3d", "libopencv_imgcodecs"})
     EXPECT_EQ(ldd.out.find(banned), std::string::npos) << "vdrig-rti loads " << banned;
   // Typed by hand `vdrig-rti fit ...` is `vdrig rti fit ...`: the same help, errors and exit codes (but for the
   // program's name CLI11 prints).
