@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
 
 #include "synthetic_stack.hpp"
 #include "vdrig/test/process.hpp"
@@ -29,6 +30,62 @@ TEST(RtiCli, ExecutablesLoadNoOpenCvImgcodecs) {
     for (const char* banned : {"libopencv_imgcodecs", "libopencv_highgui", "libopencv_videoio", "libgdal"})
       EXPECT_EQ(ldd.out.find(banned), std::string::npos) << exe << " loads " << banned;
   }
+}
+
+// Issue #25: `vdrig rti` runs as the thin vdrig-rti beside vdrig (apps/vdrig/main.cpp), which maps none of the
+// libraries only other subcommands need (their shared pages were most of a small fit's peak memory).
+TEST(RtiCli, ThinExecutableLinksOnlyWhatRtiNeedsAndHasVdrigsHelp) {
+  const std::string front = VDRIG_CLI_PATH;
+  const std::string thin = (std::filesystem::path(front).parent_path() / "vdrig-rti").string();
+  const ProcessRun ldd = test::run_process({"/usr/bin/ldd", thin});
+  ASSERT_EQ(ldd.exit_code, 0) << ldd.out << ldd.err;
+  EXPECT_NE(ldd.out.find("libopencv_core"), std::string::npos) << ldd.out;  // ldd did list the libraries
+  for (const char* banned : {"libcamera", "libmpi", "libssl", "libcrypto", "libGL.so", "libglfw", "libmodbus",
+                             "libgpiod", "libusb", "libopencv_calib3d", "libopencv_imgcodecs"})
+    EXPECT_EQ(ldd.out.find(banned), std::string::npos) << "vdrig-rti loads " << banned;
+  // Typed by hand `vdrig-rti fit ...` is `vdrig rti fit ...`: the same help, errors and exit codes (but for the
+  // program's name CLI11 prints).
+  const auto as_front = [&](std::string text) {
+    for (size_t at = text.find(thin + " rti"); at != std::string::npos; at = text.find(thin + " rti"))
+      text.replace(at, thin.size(), front);
+    return text;
+  };
+  const std::vector<std::pair<std::vector<std::string>, std::vector<std::string>>> cases{
+      {{front, "rti", "--help"}, {thin, "--help"}},
+      {{front, "rti", "fit", "--help"}, {thin, "fit", "--help"}},
+      {{front, "rti", "fit"}, {thin, "fit"}},  // required arguments missing
+      {{front, "--log-level", "warn", "rti", "export", "m.exr", "--fromat", "ptm"},
+       {thin, "--log-level", "warn", "export", "m.exr", "--fromat", "ptm"}}};  // a typo, with its suggestion
+  for (const auto& [via_front, direct] : cases) {
+    const ProcessRun a = test::run_process(via_front), b = test::run_process(direct);
+    EXPECT_EQ(a.exit_code, b.exit_code) << via_front.back();
+    EXPECT_EQ(a.out, as_front(b.out)) << via_front.back();
+    EXPECT_EQ(a.err, as_front(b.err)) << via_front.back();
+    EXPECT_EQ(a.exit_code == 0, via_front.back() == "--help") << a.out << a.err;
+  }
+}
+
+// vdrig execs the vdrig-rti beside it with its own argv and exit code, and runs the command itself without one.
+TEST(RtiCli, FrontExecsTheThinExecutableOrRunsRtiItself) {
+  test::TempDir dir("rti_cli_thin");
+  const std::filesystem::path front = dir / "vdrig", thin = dir / "vdrig-rti";
+  std::filesystem::copy_file(VDRIG_CLI_PATH, front);
+  std::filesystem::permissions(front, std::filesystem::perms::owner_all);
+  {
+    std::ofstream script(thin);
+    script << "#!/bin/sh\necho \"thin: $*\"\nexit 7\n";
+  }
+  std::filesystem::permissions(thin, std::filesystem::perms::owner_all);
+  ProcessRun r = test::run_process({front.string(), "--log-level", "warn", "rti", "fit", "--help"});
+  EXPECT_EQ(r.exit_code, 7) << r.out << r.err;
+  EXPECT_EQ(r.out, "thin: --log-level warn rti fit --help\n");
+  r = test::run_process({front.string(), "--help"});  // other commands, and vdrig's own help, stay in vdrig
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("Subcommands:"), std::string::npos) << r.out;
+  std::filesystem::remove(thin);
+  r = test::run_process({front.string(), "rti", "fit", "--help"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find(front.string() + " rti fit [OPTIONS] input"), std::string::npos) << r.out;
 }
 
 TEST(RtiCli, ImportFitExport) {
