@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "commands.hpp"
 #include "progress.hpp"
@@ -15,6 +16,7 @@
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/pipeline/fit_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/sim_rig.hpp"
 
@@ -191,43 +193,39 @@ Status run_demo(const DemoArgs& a) {
               geometry->views.views.size());
   end_step("extrinsics");
 
-  // Hold out views spread over the session (never the normal view 0): they test the fit on unseen directions. The
-  // observation map holds every view (streamed to SESSION/obsmap/, as `vdrig fit` does); the fit leaves the held-out
-  // ones out and measures itself on them (holdout.R/G/B).
-  const std::vector<int> held_out = pipeline::spread_holdout_views(n_views, a.holdout);
+  // The fit is `vdrig fit`'s (pipeline::run_fit_stage): held-out views spread over the session (never the normal
+  // view 0) among the views the fit gets, to test it on unseen directions; the observation map holds every view
+  // (streamed to SESSION/obsmap/); the fit leaves the held-out ones out and measures itself on them (holdout.R/G/B).
   if (a.holdout >= n_views)
     return make_error(ErrorCode::kInvalidArgument, "--holdout " + std::to_string(a.holdout) +
                                                        ": the session has only " + std::to_string(n_views) + " views");
-
-  std::printf("7/%d observation map %dx%d from %d views (%zu held out)\n", kSteps, res.first, res.second, n_views,
-              held_out.size());
-  auto obs_path = pipeline::session_obsmap_file(session.value(), res.first, res.second);
-  if (!obs_path) return obs_path.error();
-  auto obs = fitting::ObsMapReader::open(obs_path.value());
-  if (!obs) return obs.error();
-  end_step("observation map");
-
-  std::printf("8/%d fit phong:1 per texel\n", kSteps);
-  fitting::MapFitOptions fit_options;
-  fit_options.held_out = held_out;
-  ProgressLine fit_progress;
-  fit_options.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
+  pipeline::FitStageOptions fit_stage;
+  fit_stage.session = session_dir;
+  fit_stage.request.model = "phong:1";
+  fit_stage.request.holdout = a.holdout;
+  std::tie(fit_stage.texels_s, fit_stage.texels_t) = res;
+  fit_stage.command = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " + a.scheme + " --res " +
+                      a.resolution + " --holdout " + std::to_string(a.holdout);
+  ProgressLine view_progress, fit_progress;
+  fit_stage.on_view = [&view_progress](int done, int total) {
+    view_progress.update(done, total, "    views %d/%d", done, total);
+  };
+  fit_stage.on_step = [&](pipeline::FitStep step, const std::string& line) {
+    view_progress.finish();
+    if (step == pipeline::FitStep::kObsMap) std::printf("7/%d %s\n", kSteps, line.c_str());
+    if (step != pipeline::FitStep::kFit) return;
+    end_step("observation map");
+    std::printf("8/%d %s per texel\n", kSteps, line.c_str());
+  };
+  fit_stage.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
     fit_progress.update(p.texels_done, p.texels_total, "    texels %d/%d, ETA %.0f s", p.texels_done, p.texels_total,
                         p.eta_s);
   };
-  const double fit_start_s = elapsed_s();
-  auto map = fitting::fit_parameter_map(obs.value(), fit_options);
+  auto fitted = pipeline::run_fit_stage(fit_stage);
   fit_progress.finish();
-  if (!map) return map.error();
-  map->set_source_session(session_dir.string());
-  map->image().number_attributes[fitting::kFitSecondsAttribute] = elapsed_s() - fit_start_s;
-  map->image().string_attributes["vdrig.command"] = "vdrig demo --out " + a.out + " --scene " + a.scene + " --scheme " +
-                                                    a.scheme + " --res " + a.resolution + " --holdout " +
-                                                    std::to_string(a.holdout);
-  // Named by the model's spec, as `vdrig fit --model phong:1` names it.
-  const fs::path map_path = layout.parameter_map_file(fit_options.model->name());
-  fs::create_directories(map_path.parent_path(), ec);
-  VDRIG_TRY(map->write(map_path));
+  if (!fitted) return fitted.error();
+  const std::vector<int>& held_out = fitted->held_out;
+  const fs::path map_path = fitted->map_file;
   end_step("fit");
 
   std::printf("9/%d render the held-out views and compare them with the photographs (as vdrig compare)\n", kSteps);
@@ -235,8 +233,8 @@ Status run_demo(const DemoArgs& a) {
   // images tone mapped from HDR, |render - photo| over the surface pixels with exact radiance), written where that
   // command writes it, so the demo and compare print one figure for one view.
   pipeline::CompareOptions compare_options;
-  compare_options.command = "vdrig demo (vdrig compare " + session_dir.string() + " --maps " +
-                            fit_options.model->name() + " --views held-out)";
+  compare_options.command =
+      "vdrig demo (vdrig compare " + session_dir.string() + " --maps " + fitted->model + " --views held-out)";
   auto compared = pipeline::compare_maps(session.value(), {map_path}, held_out, compare_options);
   if (!compared) return compared.error();
   for (const pipeline::ViewComparison& row : compared->rows) {

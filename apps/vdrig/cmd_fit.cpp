@@ -1,13 +1,13 @@
 // vdrig fit: a session's observation map fitted with one reflectance model into a parameter map (OpenEXR).
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -64,10 +64,6 @@ std::string fit_command(const FitArgs& a) {
   return cmd;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 pipeline::FitRequest fit_request(const FitArgs& a) {
   pipeline::FitRequest r;
   r.model = a.model;
@@ -84,67 +80,41 @@ pipeline::FitRequest fit_request(const FitArgs& a) {
   return r;
 }
 
-Status run_fit_steps(const FitArgs& a) {
-  auto res = parse_resolution(a.resolution);
-  if (!res) return res.error();
-  auto session = capture::Session::open(a.session);
-  if (!session) return session.error();
-  const int n_views = static_cast<int>(session->manifest().views.size());
-  // Views whose observations the fit does not get: held-out views are chosen among the others.
-  std::vector<bool> unusable(static_cast<size_t>(n_views), false);
-  for (int v = 0; v < n_views; ++v) unusable[v] = !session->view_complete(v);
-  if (auto geometry = pipeline::session_geometry(session.value()); geometry)
-    for (size_t v = 0; v < geometry->excluded.size() && v < unusable.size(); ++v)
-      unusable[v] = unusable[v] || geometry->excluded[v];
-  auto fit_options = pipeline::fit_options_for(fit_request(a), n_views, unusable);
-  if (!fit_options) return fit_options.error();
-  fitting::MapFitOptions& options = fit_options.value();
-  const fs::path out = a.out.empty() ? session->layout().parameter_map_file(options.model->name()) : fs::path(a.out);
-  cluster::Comm* comm = nullptr;
+/// The fit is pipeline::run_fit_stage's (fit_stage.hpp); this command parses, shows progress and, with --mpi, hands
+/// the stage cluster's distributed fit (the pipeline links no cluster).
+Status run_fit(const FitArgs& a) {
+  pipeline::FitStageOptions stage;
+  stage.session = a.session;
+  stage.request = fit_request(a);
+  stage.out = a.out;
+  stage.obsmap = a.obsmap;
+  stage.command = fit_command(a);
+  if (a.obsmap.empty()) {
+    auto res = parse_resolution(a.resolution);
+    if (!res) return res.error();
+    std::tie(stage.texels_s, stage.texels_t) = res.value();
+  }
+  ProgressLine view_progress, fit_progress, tile_progress;
+  stage.on_view = [&view_progress](int done, int total) {
+    view_progress.update(done, total, "  views %d/%d", done, total);
+  };
+  stage.on_step = [&view_progress](pipeline::FitStep, const std::string& line) {
+    view_progress.finish();
+    std::printf("%s\n", line.c_str());
+  };
+  stage.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
+    fit_progress.update(p.texels_done, p.texels_total, "  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s",
+                        p.texels_done, p.texels_total, 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s,
+                        p.eta_s);
+  };
+  cluster::DistributedFitOptions distributed;
   if (a.mpi) {
     auto world = cluster::world();
     if (!world) return world.error();
-    comm = world.value();
-  }
-  const bool lead = !comm || comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
-  // The default output is a file of the session (maps/): never reached through a link planted in the session.
-  if (a.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
-  if (lead) VDRIG_TRY(pipeline::check_fit_output_writable(out));
-  if (lead && a.obsmap.empty()) VDRIG_TRY(pipeline::check_map_fits(*options.model, res->first, res->second, out));
-
-  // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
-  // tile at a time, so memory stays bounded whatever --res is.
-  std::filesystem::path obsmap_path = a.obsmap;
-  if (obsmap_path.empty() && !lead) {
-    obsmap_path = session->layout().obsmap_file(res->first, res->second);
-  } else if (obsmap_path.empty()) {
-    std::printf("observation map %dx%d from %d views (%zu held out)\n", res->first, res->second, n_views,
-                options.held_out.size());
-    pipeline::ObsMapBuildOptions build;
-    ProgressLine progress;
-    build.on_view = [&progress](int done, int total) { progress.update(done, total, "  views %d/%d", done, total); };
-    auto built = pipeline::session_obsmap_file(session.value(), res->first, res->second, build);
-    progress.finish();
-    if (!built) return built.error();
-    obsmap_path = built.value();
-  }
-  // The other ranks open the observation map once rank 0 has made it current (built on rank 0 alone here; `vdrig
-  // obsmap build --mpi` builds it on every rank).
-  if (comm) VDRIG_TRY(comm->barrier());
-  auto obs = fitting::ObsMapReader::open(obsmap_path);
-  if (!obs) return obs.error();
-  if (obs->views() != n_views)
-    return make_error(ErrorCode::kInvalidArgument, obsmap_path.string() + " holds " + std::to_string(obs->views()) +
-                                                       " views, the session " + std::to_string(n_views));
-  if (lead)
-    std::printf("observations from %s (%dx%d texels)\n", obsmap_path.c_str(), obs->spec().texels_s,
-                obs->spec().texels_t);
-
-  if (comm) {
-    if (lead) std::printf("fit %s on %d MPI ranks\n", options.model->name().c_str(), comm->size());
-    cluster::DistributedFitOptions distributed;
-    distributed.tiles_root = out.string() + ".tiles";
-    ProgressLine tile_progress;
+    cluster::Comm* comm = world.value();
+    stage.ranks.lead = comm->rank() == 0;  // the rank that prints, builds the observation map, writes the map
+    stage.ranks.description = " on " + std::to_string(comm->size()) + " MPI ranks";
+    stage.ranks.barrier = [comm] { return comm->barrier(); };
     distributed.on_tile = [&tile_progress](int pass, int done, int total) {
       tile_progress.update(done, total, "  pass %d: tiles %d/%d", pass + 1, done, total);
     };
@@ -153,64 +123,38 @@ Status run_fit_steps(const FitArgs& a) {
     if (const char* r = std::getenv("VDRIG_TEST_MPI_EXIT_RANK"); r && std::atoi(r) == comm->rank())
       if (const char* n = std::getenv("VDRIG_TEST_MPI_EXIT_AFTER_TILES"))
         distributed.test_exit_after_tiles = std::atoi(n);
-    const auto fit_start = std::chrono::steady_clock::now();
-    auto fitted = cluster::fit_distributed(*comm, obs.value(), options, distributed);
-    tile_progress.finish();
-    if (!fitted) return fitted.error();
-    if (!lead) return Status::ok();
-    fitting::ParameterMap& map = fitted->value();
-    map.set_source_session(fs::absolute(a.session).string());
-    map.image().string_attributes["vdrig.command"] = fit_command(a);
-    map.image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
-    VDRIG_TRY(map.write(out));
+    // Tile records beside the map (OUT.tiles/), where the stage puts the map: the model's default name or --out.
+    const auto tiles_root = [&a](const fitting::MapFitOptions& options) {
+      const fs::path out =
+          a.out.empty() ? capture::SessionLayout(a.session).parameter_map_file(options.model->name()) : fs::path(a.out);
+      return fs::path(out.string() + ".tiles");
+    };
+    stage.ranks.fit = [comm, &distributed, &tile_progress, tiles_root](const fitting::ObsMapReader& obs,
+                                                                       const fitting::MapFitOptions& options) {
+      distributed.tiles_root = tiles_root(options);
+      auto fitted = cluster::fit_distributed(*comm, obs, options, distributed);
+      tile_progress.finish();
+      return fitted;
+    };
     // The map is durable (written atomically): its tile records are no longer needed.
-    auto store =
-        cluster::TileStore::open(distributed.tiles_root, cluster::fit_fingerprint(obs.value(), options), false);
-    if (store) VDRIG_TRY(store->remove());
-    std::printf("wrote %s (%s, %dx%d texels)\n", out.c_str(), map.model().name().c_str(), map.texels_s(),
-                map.texels_t());
-    return Status::ok();
+    stage.ranks.after_write = [&distributed](const fitting::ObsMapReader& obs, const fitting::MapFitOptions& options) {
+      auto store = cluster::TileStore::open(distributed.tiles_root, cluster::fit_fingerprint(obs, options), false);
+      return store ? store->remove() : Status::ok();
+    };
   }
-
-  std::printf("fit %s\n", options.model->name().c_str());
-  ProgressLine fit_progress;
-  options.on_progress = [&fit_progress](const fitting::MapFitProgress& p) {
-    fit_progress.update(p.texels_done, p.texels_total, "  texels %d/%d (%.0f %%), %.0f s elapsed, ETA %.0f s",
-                        p.texels_done, p.texels_total, 100.0 * p.texels_done / std::max(1, p.texels_total), p.elapsed_s,
-                        p.eta_s);
-  };
-  const auto fit_start = std::chrono::steady_clock::now();
-  auto map = fitting::fit_parameter_map(obs.value(), options);
+  auto fitted = pipeline::run_fit_stage(stage);
   fit_progress.finish();
-  if (!map) return map.error();
-  map->set_source_session(fs::absolute(a.session).string());
-  map->image().string_attributes["vdrig.command"] = fit_command(a);
-  map->image().number_attributes[fitting::kFitSecondsAttribute] = seconds_since(fit_start);
-  VDRIG_TRY(map->write(out));
-
-  const pipeline::FitSummary summary = pipeline::summarize_fit(map.value());
-  std::printf("wrote %s (%s, %dx%d texels); median RMS %.4g", out.c_str(), map->model().name().c_str(), map->texels_s(),
-              map->texels_t(), summary.median_rms);
-  if (summary.median_holdout_rms) std::printf(", median held-out RMS %.4g", *summary.median_holdout_rms);
+  if (!fitted) return fitted.error();
+  if (fitted->map_file.empty()) return Status::ok();  // a rank other than the lead
+  std::printf("wrote %s (%s, %dx%d texels)", fitted->map_file.c_str(), fitted->model.c_str(), fitted->texels_s,
+              fitted->texels_t);
+  if (!a.mpi) {
+    std::printf("; median RMS %.4g", fitted->summary.median_rms);
+    if (fitted->summary.median_holdout_rms)
+      std::printf(", median held-out RMS %.4g", *fitted->summary.median_holdout_rms);
+  }
   std::printf("\n");
   return Status::ok();
-}
-
-/// The fit, leaving no empty folder behind when it fails: maps/ and obsmap/ (and --out's folder) are made before the
-/// work, so that a fit that cannot write its output fails early, and removed again when they were made for nothing.
-Status run_fit(const FitArgs& a) {
-  const capture::SessionLayout layout(a.session);
-  std::vector<fs::path> folders = {layout.maps_dir(), layout.obsmap_dir()};
-  if (!a.out.empty() && fs::path(a.out).has_parent_path()) folders.push_back(fs::path(a.out).parent_path());
-  std::vector<fs::path> made;  // folders this fit may create: those absent before it
-  std::error_code ec;
-  for (const fs::path& folder : folders)
-    if (!fs::exists(folder, ec)) made.push_back(folder);
-  const Status status = run_fit_steps(a);
-  if (!status)
-    for (const fs::path& folder : made)
-      if (fs::is_directory(folder, ec) && fs::is_empty(folder, ec)) fs::remove(folder, ec);
-  return status;
 }
 
 const CommandRegistrar kFit([](CLI::App& root) {

@@ -5,17 +5,22 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <vector>
 
+#include "vdrig/capture/session_layout.hpp"
+#include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/phong.hpp"
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/fitting/tiled_fit.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
+#include "vdrig/pipeline/geometry_stage.hpp"
+#include "vdrig/pipeline/obsmap_stage.hpp"
 
 namespace vdrig::pipeline {
 namespace fs = std::filesystem;
@@ -226,6 +231,123 @@ FitSummary summarize_fit(const fitting::ParameterMap& map) {
   summary.median_rms = median_of("rms.");
   if (map.has("holdout.R")) summary.median_holdout_rms = median_of("holdout.");
   return summary;
+}
+
+std::string FitStageOptions::validate() const {
+  if (session.empty()) return "no session folder";
+  if (obsmap.empty() && (texels_s <= 0 || texels_t <= 0))
+    return "--res " + std::to_string(texels_s) + "x" + std::to_string(texels_t) + ": texels must be positive";
+  if (request.holdout < 0) return "--holdout must not be negative";
+  if (!ranks.lead && !ranks.fit) return "a rank other than the lead needs the job's fit (FitStageRanks::fit)";
+  return "";
+}
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
+  const std::string invalid = o.validate();
+  if (!invalid.empty()) return make_error(ErrorCode::kInvalidArgument, invalid);
+  const auto step = [&o](FitStep s, const std::string& line) {
+    if (o.on_step && o.ranks.lead) o.on_step(s, line);
+  };
+  auto session = capture::Session::open(o.session);
+  if (!session) return session.error();
+  const int n_views = static_cast<int>(session->manifest().views.size());
+  // Views whose observations the fit does not get: held-out views are chosen among the others.
+  std::vector<bool> unusable(static_cast<size_t>(n_views), false);
+  for (int v = 0; v < n_views; ++v) unusable[v] = !session->view_complete(v);
+  if (auto geometry = session_geometry(session.value()); geometry)
+    for (size_t v = 0; v < geometry->excluded.size() && v < unusable.size(); ++v)
+      unusable[v] = unusable[v] || geometry->excluded[v];
+  auto fit_options = fit_options_for(o.request, n_views, unusable);
+  if (!fit_options) return fit_options.error();
+  fitting::MapFitOptions& options = fit_options.value();
+  const bool lead = o.ranks.lead;
+  const fs::path out = o.out.empty() ? session->layout().parameter_map_file(options.model->name()) : o.out;
+  // The default output is a file of the session (maps/): never reached through a link planted in the session.
+  if (o.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
+  if (lead) VDRIG_TRY(check_fit_output_writable(out));
+  if (lead && o.obsmap.empty()) VDRIG_TRY(check_map_fits(*options.model, o.texels_s, o.texels_t, out));
+
+  // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
+  // tile at a time, so memory stays bounded whatever the resolution.
+  fs::path obsmap_path = o.obsmap;
+  if (obsmap_path.empty() && !lead) {
+    obsmap_path = session->layout().obsmap_file(o.texels_s, o.texels_t);
+  } else if (obsmap_path.empty()) {
+    step(FitStep::kObsMap, "observation map " + std::to_string(o.texels_s) + "x" + std::to_string(o.texels_t) +
+                               " from " + std::to_string(n_views) + " views (" +
+                               std::to_string(options.held_out.size()) + " held out)");
+    ObsMapBuildOptions build;
+    build.on_view = o.on_view;
+    auto built = session_obsmap_file(session.value(), o.texels_s, o.texels_t, build);
+    if (!built) return built.error();
+    obsmap_path = built.value();
+  }
+  // The other ranks open the observation map once the lead has made it current (built on the lead alone here;
+  // `vdrig obsmap build --mpi` builds it on every rank).
+  if (o.ranks.barrier) VDRIG_TRY(o.ranks.barrier());
+  auto obs = fitting::ObsMapReader::open(obsmap_path);
+  if (!obs) return obs.error();
+  if (obs->views() != n_views)
+    return make_error(ErrorCode::kInvalidArgument, obsmap_path.string() + " holds " + std::to_string(obs->views()) +
+                                                       " views, the session " + std::to_string(n_views));
+  step(FitStep::kObservations, "observations from " + obsmap_path.string() + " (" +
+                                   std::to_string(obs->spec().texels_s) + "x" + std::to_string(obs->spec().texels_t) +
+                                   " texels)");
+
+  step(FitStep::kFit, "fit " + options.model->name() + o.ranks.description);
+  FitStageResult result;
+  result.obsmap_file = obsmap_path;
+  result.held_out = options.held_out;
+  result.model = options.model->name();
+  const auto fit_start = std::chrono::steady_clock::now();
+  std::optional<fitting::ParameterMap> map;
+  if (o.ranks.fit) {
+    auto fitted = o.ranks.fit(obs.value(), options);
+    if (!fitted) return fitted.error();
+    map = std::move(fitted.value());
+  } else {
+    options.on_progress = o.on_progress;
+    auto fitted = fitting::fit_parameter_map(obs.value(), options);
+    if (!fitted) return fitted.error();
+    map = std::move(fitted.value());
+  }
+  result.fit_seconds = seconds_since(fit_start);
+  if (!lead || !map) return result;
+  map->set_source_session(fs::absolute(o.session).string());
+  if (!o.command.empty()) map->image().string_attributes["vdrig.command"] = o.command;
+  map->image().number_attributes[fitting::kFitSecondsAttribute] = result.fit_seconds;
+  VDRIG_TRY(map->write(out));
+  if (o.ranks.after_write) VDRIG_TRY(o.ranks.after_write(obs.value(), options));
+  result.map_file = out;
+  result.texels_s = map->texels_s();
+  result.texels_t = map->texels_t();
+  result.summary = summarize_fit(map.value());
+  return result;
+}
+
+}  // namespace
+
+Result<FitStageResult> run_fit_stage(const FitStageOptions& options) {
+  // maps/ and obsmap/ (and the folder of `out`) are made before the work, so that a fit that cannot write its output
+  // fails early, and removed again when they were made for nothing.
+  const capture::SessionLayout layout(options.session);
+  std::vector<fs::path> folders = {layout.maps_dir(), layout.obsmap_dir()};
+  if (!options.out.empty() && options.out.has_parent_path()) folders.push_back(options.out.parent_path());
+  std::vector<fs::path> made;  // folders this fit may create: those absent before it
+  std::error_code ec;
+  for (const fs::path& folder : folders)
+    if (!fs::exists(folder, ec)) made.push_back(folder);
+  auto result = run_fit_steps(options);
+  if (!result)
+    for (const fs::path& folder : made)
+      if (fs::is_directory(folder, ec) && fs::is_empty(folder, ec)) fs::remove(folder, ec);
+  return result;
 }
 
 }  // namespace vdrig::pipeline

@@ -4,6 +4,8 @@
 
 #include <filesystem>
 
+#include "small_session.hpp"
+#include "vdrig/calib/extrinsics.hpp"
 #include "vdrig/fitting/hsh.hpp"
 #include "vdrig/fitting/phong.hpp"
 #include "vdrig/pipeline/compare_stage.hpp"
@@ -94,6 +96,76 @@ TEST(FitStage, OutputChecks) {
   EXPECT_EQ(map_bytes_at_most(*phong, 4, 2), (phong->channels().size() + 12) * 8 * sizeof(float));
   EXPECT_TRUE(check_map_fits(*phong, 8, 8, dir.path() / "m.exr").is_ok());
   EXPECT_EQ(check_map_fits(*phong, 8192, 8192, dir.path() / "m.exr").error().code, ErrorCode::kInvalidArgument);
+}
+
+// The whole stage called as a library, as `vdrig fit`, `vdrig demo` and the daemon share it: the held-out views skip
+// the one the calibration excluded, the map is written where `vdrig fit` writes it, and a second fit reuses the
+// observation map while it is current.
+TEST(FitStage, RunsTheFitOfASession) {
+  vdrig::test::TempDir tmp("fit_stage_run");
+  auto session = test::small_merged_session(tmp.path() / "s");
+  ASSERT_TRUE(session.is_ok()) << session.error().describe();
+  const int n_views = static_cast<int>(session->manifest().views.size());
+  ASSERT_GE(n_views, 6);
+  // The calibration excludes the view spread_holdout_views would hold out first.
+  const int excluded = spread_holdout_views(n_views, 2).front();
+  const fs::path views_file = session->layout().views_file();
+  auto views = calib::read_views_json(views_file);
+  ASSERT_TRUE(views.is_ok()) << views.error().describe();
+  views->exclude_unposed = true;
+  for (auto& record : views->views)
+    if (record.index == excluded && record.extrinsics) record.extrinsics->excluded = true;
+  ASSERT_TRUE(calib::write_views_json(views_file, views.value()).is_ok());
+
+  FitStageOptions o;
+  o.session = session->dir();
+  o.request.holdout = 2;
+  o.texels_s = o.texels_t = 16;
+  o.command = "test";
+  std::vector<FitStep> steps;
+  o.on_step = [&steps](FitStep step, const std::string&) { steps.push_back(step); };
+  EXPECT_EQ(o.validate(), "");
+  auto fitted = run_fit_stage(o);
+  ASSERT_TRUE(fitted.is_ok()) << fitted.error().describe();
+  EXPECT_EQ(steps, (std::vector<FitStep>{FitStep::kObsMap, FitStep::kObservations, FitStep::kFit}));
+  ASSERT_EQ(fitted->held_out.size(), 2u);
+  for (int v : fitted->held_out) {
+    EXPECT_NE(v, excluded) << "an excluded view tests nothing";
+    EXPECT_NE(v, 0) << "the normal view is never held out";
+  }
+  EXPECT_EQ(fitted->map_file, session->layout().parameter_map_file("phong:1"));
+  EXPECT_EQ(fitted->obsmap_file, session->layout().obsmap_file(16, 16));
+  auto map = fitting::ParameterMap::read(fitted->map_file);
+  ASSERT_TRUE(map.is_ok()) << map.error().describe();
+  EXPECT_EQ(map->texels_s(), 16);
+  EXPECT_EQ(map->image().string_attributes["vdrig.command"], "test");
+  EXPECT_TRUE(map->has("holdout.R"));
+  int texels_fitted = 0;  // 243 of 256 on this session: the surface covers most of the map
+  for (int t = 0; t < 16; ++t)
+    for (int s = 0; s < 16; ++s) texels_fitted += map->at("n", s, t) > 0 ? 1 : 0;
+  EXPECT_GE(texels_fitted, 160);
+  // The summary is that of the map written (mostly exact fits here: diffuse patches, noise-free renders).
+  EXPECT_EQ(fitted->summary.median_rms, summarize_fit(map.value()).median_rms);
+  ASSERT_TRUE(fitted->summary.median_holdout_rms.has_value());
+
+  // A second fit (another model) reuses the current observation map instead of building it again.
+  const auto built_at = fs::last_write_time(fitted->obsmap_file);
+  o.request.model = "phong:2";
+  o.request.holdout = 0;
+  auto again = run_fit_stage(o);
+  ASSERT_TRUE(again.is_ok()) << again.error().describe();
+  EXPECT_EQ(fs::last_write_time(again->obsmap_file), built_at);
+  EXPECT_TRUE(fs::exists(session->layout().parameter_map_file("phong:2")));
+
+  // Refused after the output's folder was made (a map vdrig could not read back): the folder is removed again.
+  o.out = tmp.path() / "nowhere" / "map.exr";
+  o.texels_s = o.texels_t = 60000;
+  auto refused = run_fit_stage(o);
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_NE(refused.error().message.find("--res 60000x60000"), std::string::npos) << refused.error().message;
+  EXPECT_FALSE(fs::exists(tmp.path() / "nowhere"));
+  o.texels_s = 0;
+  EXPECT_NE(o.validate().find("--res"), std::string::npos);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "vdrig/core/result.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -79,5 +81,63 @@ struct FitSummary {
   std::optional<double> median_holdout_rms;
 };
 FitSummary summarize_fit(const fitting::ParameterMap& map);
+
+/// The steps of run_fit_stage that a caller may announce (FitStageOptions::on_step).
+enum class FitStep {
+  kObsMap,        // the session's observation map is made current (built, or reused while current)
+  kObservations,  // the observation map is open: its file and size
+  kFit,           // the fit starts
+};
+
+/// The hooks of an MPI job (cluster/, docs/scale.md): the pipeline links no cluster (MPI ranks link fitting only,
+/// docs/conventions.md), so `vdrig fit --mpi` passes cluster::fit_distributed through here. Unset: one process.
+struct FitStageRanks {
+  bool lead = true;                 // this rank builds the observation map, announces the steps and writes the map
+  std::function<Status()> barrier;  // every rank waits there until the lead has made the observation map current
+  /// Fits in place of fitting::fit_parameter_map; the map on the lead, none on the other ranks.
+  std::function<Result<std::optional<fitting::ParameterMap>>(const fitting::ObsMapReader&,
+                                                             const fitting::MapFitOptions&)>
+      fit;
+  std::function<Status(const fitting::ObsMapReader&, const fitting::MapFitOptions&)> after_write;  // e.g. cleanup
+  std::string description;  // appended to the kFit line, e.g. " on 4 MPI ranks"
+};
+
+/// A whole fit of a session, as `vdrig fit` and `vdrig demo` run it (run_fit_stage).
+struct FitStageOptions {
+  std::filesystem::path session;  // the session folder (hdr/ merged, calib/ made)
+  FitRequest request;
+  int texels_s = 256, texels_t = 256;  // the map's size (--res), unless `obsmap` is given
+  std::filesystem::path out;           // the map; empty: SESSION/maps/<model>.exr (no link below the session)
+  std::filesystem::path obsmap;        // an observation-map file to fit instead of SESSION/obsmap/<S>x<T>.vdobs
+  std::string command;                 // the command line recorded in the map (vdrig.command; `vdrig report`)
+  /// What the caller shows; each may be empty. on_step's line is the step as `vdrig fit` prints it.
+  std::function<void(FitStep step, const std::string& line)> on_step;
+  std::function<void(int done, int total)> on_view;                 // observation-map build, per view
+  std::function<void(const fitting::MapFitProgress&)> on_progress;  // the fit in one process
+  FitStageRanks ranks;
+
+  /// Empty when the options can run; otherwise the reason, naming the option (what needs the session — the model's
+  /// options, --holdout against its views — is checked by run_fit_stage, fit_options_for).
+  std::string validate() const;
+};
+
+/// What run_fit_stage did.
+struct FitStageResult {
+  std::filesystem::path map_file;     // written (on the lead rank; empty on the others)
+  std::filesystem::path obsmap_file;  // the observation map fitted
+  std::vector<int> held_out;          // the views left out of the fit (fit_options_for: none excluded, all complete)
+  std::string model;                  // the model's name
+  int texels_s = 0, texels_t = 0;
+  FitSummary summary;      // of the written map
+  double fit_seconds = 0;  // the fit alone (also in the map, fitting::kFitSecondsAttribute)
+};
+
+/// `vdrig fit`: the options validated (kInvalidArgument with the reason), the held-out views chosen among those
+/// the fit gets (neither excluded by the calibration nor incomplete), the output checked before the work
+/// (writable, readable back, room on disk), the observation map made current (reused while current:
+/// session_obsmap_file) or `options.obsmap` read, the model fitted (one process, or `options.ranks`), the map
+/// written with its session and command. On failure the folders it made for nothing (maps/, obsmap/, the folder of
+/// `out`) are removed again when empty.
+Result<FitStageResult> run_fit_stage(const FitStageOptions& options);
 
 }  // namespace vdrig::pipeline
