@@ -60,10 +60,15 @@ double specular_factor_cos(double ln, double vn, double hn, double r, double* d_
   return s;
 }
 
-/// ggx:iso+n's shading normal from its two channels; false when x^2 + y^2 exceeds GgxModel::kMaxTilt.
-bool shading_normal(double x, double y, Vec3d* n) {
+/// A parameter map stores float channels: a normal the fit put on the tilt bound reads back up to ~1e-7 past it
+/// (x^2 + y^2; a Blender session's map was refused at 0.9500000308), so a stored map is read with this slack (the
+/// fit itself keeps to the bound: given the slack it would use it, and the stored value would land past it again).
+constexpr double kTiltStorageSlack = 1e-6;
+
+/// ggx:iso+n's shading normal from its two channels; false when x^2 + y^2 exceeds GgxModel::kMaxTilt + slack.
+bool shading_normal(double x, double y, Vec3d* n, double slack = 0.0) {
   const double q = x * x + y * y;
-  if (!(q <= GgxModel::kMaxTilt)) return false;
+  if (!(q <= GgxModel::kMaxTilt + slack)) return false;
   *n = Vec3d(x, y, std::sqrt(1.0 - q));
   return true;
 }
@@ -475,7 +480,7 @@ GgxMaterial GgxModel::material(std::span<const double> p) {
 
 GgxMaterial GgxModel::texel_material(std::span<const double> p) const {
   GgxMaterial m = material(p);
-  if (shading_normal_ && !shading_normal(p[kNormal], p[kNormal + 1], &m.normal))
+  if (shading_normal_ && !shading_normal(p[kNormal], p[kNormal + 1], &m.normal, kTiltStorageSlack))
     m.normal = Vec3d(p[kNormal], p[kNormal + 1], 0.0).normalized();  // past the tilt bound: at the horizon
   if (aniso_) m.roughness_b = p[kMaterialParameters], m.angle = p[kMaterialParameters + 1];
   return m;
@@ -519,7 +524,7 @@ Vec3d GgxModel::evaluate(std::span<const double> p, const Vec3d& v) const {
 
 std::string GgxModel::check_parameters(std::span<const double> p) const {
   const int light_at = light_channel(), irradiance_at = light_at + 3;
-  if (shading_normal_ && p[kNormal] * p[kNormal] + p[kNormal + 1] * p[kNormal + 1] > kMaxTilt + 1e-9)
+  if (shading_normal_ && p[kNormal] * p[kNormal] + p[kNormal + 1] * p[kNormal + 1] > kMaxTilt + kTiltStorageSlack)
     return fmt::format("the normal is tilted past the bound (x^2 + y^2 = {} > {})",
                        p[kNormal] * p[kNormal] + p[kNormal + 1] * p[kNormal + 1], kMaxTilt);
   for (int i = 0; i < 3; ++i) {

@@ -423,5 +423,21 @@ TEST(GgxModel, StoresTheLightPerTexelAndRendersTheSession) {
     }
 }
 
+TEST(GgxModel, ANormalOnTheTiltBoundPassesItsCheckAfterFloatStorage) {
+  // A map stores float channels: the fit's normal on the bound (x^2 + y^2 = 0.95) reads back a few 1e-8 past it; a
+  // Blender session's ggx:iso+n map was refused by its own check at 0.9500000308 before the check allowed for it.
+  const GgxModel model(GgxModel::Form::kIsoNormal);
+  std::vector<double> p(model.channels().size(), 0.0);
+  p[6] = 0.5;  // roughness
+  const float x = std::nextafter(static_cast<float>(std::sqrt(GgxModel::kMaxTilt / 2)), 1.0f);
+  p[GgxModel::kMaterialParameters] = p[GgxModel::kMaterialParameters + 1] = x;
+  ASSERT_GT(double{x} * x * 2, GgxModel::kMaxTilt);
+  EXPECT_EQ(model.check_parameters(p), "");
+  EXPECT_NEAR(model.texel_material(p).normal.z(), std::sqrt(1 - GgxModel::kMaxTilt), 1e-6);
+  // A normal well past the bound is still refused.
+  p[GgxModel::kMaterialParameters] = p[GgxModel::kMaterialParameters + 1] = 0.7;
+  EXPECT_NE(model.check_parameters(p), "");
+}
+
 }  // namespace
 }  // namespace vdrig::fitting
