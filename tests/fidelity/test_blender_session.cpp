@@ -13,6 +13,7 @@
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -109,7 +110,7 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   };
   auto figures = compare(map_path, dir.path() / "compare");
   if (!figures && figures.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display: " << figures.error().message;
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << figures.error().message;
   ASSERT_TRUE(figures) << figures.error().describe();
   ASSERT_GT(figures->diffuse_n, 10000);
   ASSERT_GT(figures->highlight_n, 100);

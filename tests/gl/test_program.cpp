@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "vdrig/gl/context.hpp"
+#include "vdrig/test/require_gl.hpp"
 
 namespace vdrig::gl {
 namespace {
@@ -24,7 +25,7 @@ void main() { out_colour = vec4(v_uv, 0.0, 1.0); }
 
 TEST(GlProgram, LinksAGoodPairAndNamesTheFailingStageOtherwise) {
   auto ctx = Context::create(16, 16, false);
-  if (!ctx) GTEST_SKIP() << "no OpenGL display: " << ctx.error().message;
+  if (!ctx) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << ctx.error().message;
 
   auto good = link_program(kVertex, kFragment, "test shader");
   ASSERT_TRUE(good) << good.error().describe();

@@ -10,6 +10,7 @@
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/test/true_calibration.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
@@ -102,7 +103,7 @@ TEST_F(Compare, StatisticsAndImagesMatchAHandComputation) {
   options.out_dir = dir_ / "out";
   auto report = compare_maps(session.value(), {lambert, shiny}, {0}, options);
   if (!report && report.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display: " << report.error().message;
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << report.error().message;
   ASSERT_TRUE(report) << report.error().describe();
   ASSERT_EQ(report->rows.size(), 2u);
   EXPECT_EQ(report->region_map, "lambert") << "the first Phong map defines the regions";
@@ -221,7 +222,7 @@ TEST_F(Compare, PhongOneFromHeldOutViewsIsCloseToThePhotographs) {
 
   auto report = compare_maps(session.value(), {map_path}, held.value());
   if (!report && report.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display: " << report.error().message;
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << report.error().message;
   ASSERT_TRUE(report) << report.error().describe();
   std::printf("%s", report->table().c_str());
   long long highlight_samples = 0;

@@ -10,6 +10,7 @@
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/test/true_calibration.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
@@ -96,7 +97,7 @@ TEST_F(EndToEnd, FittedMapRendersUnseenViewLikeThePhotograph) {
   };
   auto good = patch_error(map_path, dir_ / "renders");
   if (!good && good.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display: " << good.error().message;
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << good.error().message;
   ASSERT_TRUE(good) << good.error().describe();
   EXPECT_LT(good.value(), 3.0) << "mean |render - photo| on the diffuse patch, 8-bit codes";
 

@@ -21,6 +21,7 @@
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
 #include "vdrig/test/process.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -546,7 +547,7 @@ TEST_F(Report, LoadsInARealBrowserWithoutErrors) {
   ASSERT_TRUE(map->write(map_path));
   auto compared = compare_maps(session.value(), {map_path}, fit.held_out);
   if (!compared && compared.error().code == ErrorCode::kUnsupported)
-    GTEST_SKIP() << "no OpenGL display for the comparison: " << compared.error().message;
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display for the comparison: " << compared.error().message;
   ASSERT_TRUE(compared) << compared.error().describe();
 
   // Written after the fit and the comparison, which would otherwise pose the views with it.

@@ -26,6 +26,7 @@
 #include "vdrig/probe/object_path.hpp"
 #include "vdrig/probe/probe_json.hpp"
 #include "vdrig/test/process.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::probe {
@@ -139,7 +140,7 @@ class AnimateCli : public ::testing::Test {
     dir_ = nullptr;
   }
   void SetUp() override {
-    if (!gl_) GTEST_SKIP() << "no OpenGL 3.3 context (run under xvfb-run)";
+    if (!gl_) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL 3.3 context (run under xvfb-run)";
     ASSERT_EQ(run_->exit_code, 0) << run_->out << run_->err;
     meta_ = json::parse(slurp(dir_->path() / "frames" / "frames.json"));
     gamma_ = meta_["gamma"].get<double>();

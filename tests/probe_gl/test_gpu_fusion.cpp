@@ -14,6 +14,7 @@
 #include "vdrig/probe/fusion.hpp"
 #include "vdrig/probe/soft_lights.hpp"
 #include "vdrig/probe_gl/gpu_fusion.hpp"
+#include "vdrig/test/require_gl.hpp"
 
 namespace vdrig::probe_gl {
 namespace {
@@ -55,7 +56,7 @@ class GpuFusionTest : public ::testing::Test {
  protected:
   void SetUp() override {
     auto ctx = gl::Context::create(16, 16, false);
-    if (!ctx) GTEST_SKIP() << "no OpenGL 3.3 context (run under xvfb-run): " << ctx.error().describe();
+    if (!ctx) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL 3.3 context (run under xvfb-run): " << ctx.error().describe();
     ctx_ = std::move(ctx.value());
     for (const Vec3d& p : room_probe_positions()) probes_.push_back(render_room_probe(p, 64));
     // A dark object 0.3 m in front of probe 0, toward the room's centre: without the depth test its darkness leaks

@@ -11,6 +11,7 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/interactive.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"
@@ -103,9 +104,9 @@ class Interactive : public ::testing::Test {
   std::string skipped_;
 };
 
-#define RUN_OR_SKIP(var, opts)                                              \
-  const ViewerResult var = run(opts);                                       \
-  if (!skipped_.empty()) GTEST_SKIP() << "no OpenGL display: " << skipped_; \
+#define RUN_OR_SKIP(var, opts)                                                         \
+  const ViewerResult var = run(opts);                                                  \
+  if (!skipped_.empty()) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << skipped_; \
   ASSERT_FALSE(var.last_frame.empty())
 
 TEST_F(Interactive, ConstrainedFrameMatchesHeadlessRender) {
@@ -231,7 +232,7 @@ TEST_F(Interactive, PhotographAndDifferenceAtACapturedView) {
   cv::Mat photo, render;
   {
     auto ctx = GlContext::create(kWidth, kHeight, false);
-    if (!ctx) GTEST_SKIP() << "no OpenGL display: " << ctx.error().message;
+    if (!ctx) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << ctx.error().message;
     photo =
         (*SurfaceRenderer::create(brighter))->render_radiance(*options_.camera, options_.captured_views[k], {}).value();
     render =

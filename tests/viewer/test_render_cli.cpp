@@ -16,6 +16,7 @@
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/test/process.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/viewer/headless.hpp"
 #include "vdrig/viewer/interactive.hpp"
@@ -43,7 +44,7 @@ cv::Mat read_frame(const fs::path& path) {
 class RenderCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!GlContext::create(8, 8, false)) GTEST_SKIP() << "no OpenGL 3.3 context (run under xvfb-run)";
+    if (!GlContext::create(8, 8, false)) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL 3.3 context (run under xvfb-run)";
   }
   const vdrig::test::TempDir dir_{"render_cli"};
 };

@@ -10,6 +10,7 @@
 
 #include "cpu_reference.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 
 namespace vdrig::viewer {
@@ -31,7 +32,7 @@ fitting::ParameterMap make_map(const std::string& spec) {
 void check_render(const std::string& spec) {
   SCOPED_TRACE(spec);
   auto ctx = GlContext::create(64, 48, false);
-  if (!ctx) GTEST_SKIP() << "no OpenGL 3.3 context: " << ctx.error().describe();
+  if (!ctx) VDRIG_SKIP_WITHOUT_GL() << "no OpenGL 3.3 context: " << ctx.error().describe();
   const fitting::ParameterMap map = make_map(spec);
   auto renderer = SurfaceRenderer::create(map);
   ASSERT_TRUE(renderer) << renderer.error().describe();

@@ -18,6 +18,7 @@
 #include "vdrig/pipeline/obsmap_stage.hpp"
 #include "vdrig/pipeline/web_scene.hpp"
 #include "vdrig/test/browser.hpp"
+#include "vdrig/test/require_gl.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"
 #include "web_support.hpp"
@@ -197,7 +198,7 @@ TEST_F(WebViewer, AWebGlRenderOfACapturedViewMatchesVdrigRender) {
                                                    std::to_string(view) + " --out '" + ref.string() + "'",
                                                {60});
   if (rendered.exit_code != 0 && rendered.err.find("OpenGL") != std::string::npos)
-    GTEST_SKIP() << "vdrig render has no OpenGL here (run under xvfb-run): " << rendered.err;
+    VDRIG_SKIP_WITHOUT_GL() << "vdrig render has no OpenGL here (run under xvfb-run): " << rendered.err;
   ASSERT_EQ(rendered.exit_code, 0) << rendered.err;
   auto reference = read_png(ref);
   ASSERT_TRUE(reference) << reference.error().describe();
