@@ -177,8 +177,9 @@ TEST(FitMap, LinearModelsReproduceBandLimitedTexelsAndTheirQuality) {
           EXPECT_LT((harmonic_coefficients(*map, s, t) - coeffs(s, t)).cwiseAbs().maxCoeff(), 1e-4);
           EXPECT_LT(rms.maxCoeff(), 1e-5);
         } else {
-          // Projection methods are approximate on a 289-view grid that leaves the horizon unsampled.
-          EXPECT_LT(rms.maxCoeff(), 0.5 * 2.0 / std::sqrt(4 * kPi));
+          // Projection methods are approximate on a 289-view grid that leaves the horizon unsampled. Worst texel
+          // measured: sh-zh 0.144, sh-lsop 0.085 (the DC term is 0.56); bounds 1.5x those.
+          EXPECT_LT(rms.maxCoeff(), kind == "sh-zh" ? 0.22 : 0.13);
         }
       }
   }
