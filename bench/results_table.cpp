@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "vdrig/capture/schemes.hpp"
+#include "vdrig/core/markup.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
 #include "vdrig/fitting/hsh.hpp"
@@ -31,7 +32,6 @@
 #include "vdrig/fitting/sh.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/fit_stage.hpp"
-#include "vdrig/pipeline/markup.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/texel_recording.hpp"
@@ -694,7 +694,7 @@ int main(int argc, char** argv) {
   md += "tests/fitting/test_source_comparisons.cpp.\n";
   for (const Section& s : sections) {
     md += "\n## " + s.title + "\n\n" + s.notes + "\n\n| Setup | Ours | Source |\n|---|---|---|\n";
-    const auto cell = pipeline::escape_markdown_table_cell;
+    const auto cell = core::escape_markdown_table_cell;
     for (const Row& r : s.rows) md += "| " + cell(r.setup) + " | " + cell(r.ours) + " | " + cell(r.source) + " |\n";
   }
   // Sections measured elsewhere (by tests that need a browser, say) follow a marker line; regenerating keeps them.

@@ -1,6 +1,6 @@
 // The HTML/SVG toolkit of the session report (report.cpp holds its sections): numbers formatted for text, inline PNG
 // images, viridis colours and colour bars, false-colour maps of a float plane, polar plots of the hemisphere, and
-// the section frame. Everything returns markup as a string; text is escaped with escape_html (markup.hpp).
+// the section frame. Everything returns markup as a string; text is escaped with escape_html (core/markup.hpp).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -9,8 +9,12 @@
 #include <vector>
 
 #include "vdrig/core/geometry.hpp"
-#include "vdrig/pipeline/markup.hpp"
+#include "vdrig/core/markup.hpp"
 #include "vdrig/viewer/plot.hpp"
+
+namespace vdrig::pipeline {
+using core::escape_html;  // the report's and its helpers' one escaping, shared with the plots
+}  // namespace vdrig::pipeline
 
 namespace vdrig::pipeline::html {
 

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
+#include "vdrig/core/markup.hpp"
+
 namespace vdrig::viewer::plot {
 
 Ticks nice_ticks(double lo, double hi, int max_ticks) {
@@ -139,29 +141,6 @@ std::string hex(Rgb c) {
   return buf;
 }
 
-std::string escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 std::vector<Shape> layout(const Figure& f) {
@@ -246,7 +225,7 @@ std::string to_svg(const Figure& f) {
                     std::to_string(f.height_px) + "\" viewBox=\"0 0 " + std::to_string(f.width_px) + " " +
                     std::to_string(f.height_px) + "\">";
   for (const Shape& s : layout(f)) {
-    const std::string cls = " class=\"" + escape(s.role) + "\"";
+    const std::string cls = " class=\"" + core::escape_html(s.role) + "\"";
     const std::string colour = hex(s.colour);
     const Vec2d& p = s.points.front();
     switch (s.kind) {
@@ -276,7 +255,7 @@ std::string to_svg(const Figure& f) {
         svg += "<text" + cls + " x=\"" + fmt1(p.x()) + "\" y=\"" + fmt1(p.y()) + "\" font-size=\"" + fmt1(s.size_px) +
                "\" fill=\"" + colour + "\" text-anchor=\"" + anchor + "\"" +
                (s.vertical ? " transform=\"rotate(-90 " + fmt1(p.x()) + " " + fmt1(p.y()) + ")\"" : "") + ">" +
-               escape(s.text) + "</text>";
+               core::escape_html(s.text) + "</text>";
         break;
       }
     }

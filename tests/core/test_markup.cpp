@@ -1,9 +1,10 @@
-// Escaping for the markups vdrig writes (pipeline/markup.hpp): the report's HTML and docs/results.md's tables.
+// Escaping for the markups vdrig writes (core/markup.hpp): the report's HTML and the plots' SVG and docs/results.md's
+// tables.
 #include <gtest/gtest.h>
 
-#include "vdrig/pipeline/markup.hpp"
+#include "vdrig/core/markup.hpp"
 
-namespace vdrig::pipeline {
+namespace vdrig::core {
 namespace {
 
 TEST(Markup, HtmlEscapesTheFourSpecialCharacters) {
@@ -19,4 +20,4 @@ TEST(Markup, MarkdownTableCellEscapesOnlyPipes) {
 }
 
 }  // namespace
-}  // namespace vdrig::pipeline
+}  // namespace vdrig::core

@@ -1,6 +1,6 @@
-#include "vdrig/pipeline/markup.hpp"
+#include "vdrig/core/markup.hpp"
 
-namespace vdrig::pipeline {
+namespace vdrig::core {
 
 std::string escape_html(const std::string& text) {
   std::string out;
@@ -33,4 +33,4 @@ std::string escape_markdown_table_cell(const std::string& text) {
   return out;
 }
 
-}  // namespace vdrig::pipeline
+}  // namespace vdrig::core
