@@ -17,8 +17,18 @@
 namespace vdrig::fitting {
 namespace {
 
-// Channels after the material: ggx:iso+n's normal.x/y, then (both forms) light.x/y/z and E.R/G/B.
-constexpr int kNormal = GgxModel::kMaterialParameters;
+// Channels after the material: the anisotropic forms' roughness.b and aniso.angle, the shading normal's normal.x/y,
+// then (every form) light.x/y/z and E.R/G/B (GgxModel::normal_channel, light_channel).
+
+/// The forms (GgxModel::Form) by name, as the registry parses and lists them.
+struct FormName {
+  GgxModel::Form form;
+  const char* settings;
+};
+constexpr FormName kFormNames[] = {{GgxModel::Form::kIso, "iso"},
+                                   {GgxModel::Form::kIsoNormal, "iso+n"},
+                                   {GgxModel::Form::kAniso, "aniso"},
+                                   {GgxModel::Form::kAnisoNormal, "aniso+n"}};
 
 /// The specular factor of the radiance, pi D G2 / (4 lz vz) (the radiance's specular part is E F times it), and its
 /// derivative with respect to the roughness r (alpha = r^2) when `d_dr` is given. lz, vz > 0.
@@ -73,22 +83,54 @@ bool shading_normal(double x, double y, Vec3d* n, double slack = 0.0) {
   return true;
 }
 
-/// ggx:aniso's pi D G2 / (4 lz vz) (sim/ggx.hpp's anisotropic D and Lambda) with alpha_t = rt^2 along the tangent at
-/// angle phi from the surface's x axis and alpha_b = rb^2 along the bitangent; flat normal, lz, vz > 0.
+/// ggx:aniso's pi D G2 / (4 lz vz) (sim/ggx.hpp's anisotropic D and Lambda) from the components of l, v and h in a
+/// frame (tangent, bitangent, normal), with alpha_t = rt^2 along the tangent and alpha_b = rb^2 along the bitangent;
+/// ln, vn > 0.
+double specular_factor_aniso_local(double lt, double lb, double ln, double vt, double vb, double vn, double ht,
+                                   double hb, double hn, double rt, double rb) {
+  const double at = rt * rt, ab = rb * rb;
+  const double hx = ht / at, hy = hb / ab;
+  const double q = hx * hx + hy * hy + hn * hn;
+  const double pi_d = 1.0 / (at * ab * q * q);
+  auto one_plus_two_lambda = [&](double wt, double wb, double wn) {
+    const double x = at * wt, y = ab * wb;
+    return std::sqrt(1.0 + (x * x + y * y) / (wn * wn));
+  };
+  const double g_den = 0.5 * (one_plus_two_lambda(lt, lb, ln) + one_plus_two_lambda(vt, vb, vn));  // 1 + L(l) + L(v)
+  return pi_d / g_den / (4.0 * ln * vn);
+}
+
+/// specular_factor_aniso_local on a flat texel, the tangent at angle phi from the surface's x axis; lz, vz > 0.
 double specular_factor_aniso(const Vec3d& l, const Vec3d& v, const Vec3d& h, double rt, double rb, double phi) {
   const double c = std::cos(phi), sn = std::sin(phi);
-  const double at = rt * rt, ab = rb * rb;
   auto tangent = [c, sn](const Vec3d& w) { return c * w.x() + sn * w.y(); };
   auto bitangent = [c, sn](const Vec3d& w) { return -sn * w.x() + c * w.y(); };
-  const double hx = tangent(h) / at, hy = bitangent(h) / ab;
-  const double q = hx * hx + hy * hy + h.z() * h.z();
-  const double pi_d = 1.0 / (at * ab * q * q);
-  auto one_plus_two_lambda = [&](const Vec3d& w) {
-    const double x = at * tangent(w), y = ab * bitangent(w);
-    return std::sqrt(1.0 + (x * x + y * y) / (w.z() * w.z()));
-  };
-  const double g_den = 0.5 * (one_plus_two_lambda(l) + one_plus_two_lambda(v));  // 1 + Lambda(l) + Lambda(v)
-  return pi_d / g_den / (4.0 * l.z() * v.z());
+  return specular_factor_aniso_local(tangent(l), bitangent(l), l.z(), tangent(v), bitangent(v), v.z(), tangent(h),
+                                     bitangent(h), h.z(), rt, rb);
+}
+
+/// ggx:aniso+n's tangent: the direction (cos phi, sin phi, 0) projected onto the plane of the shading normal n
+/// (n.z > 0), unit; the bitangent is n x t.
+Vec3d tilted_tangent(double phi, const Vec3d& n) {
+  const Vec3d d(std::cos(phi), std::sin(phi), 0.0);
+  return (d - n * n.dot(d)).normalized();
+}
+
+/// The angle phi in [0, pi) whose tilted_tangent under n is the direction of w (in n's plane, nonzero): w projected
+/// along n onto the surface's plane.
+double tilted_tangent_angle(const Vec3d& w, const Vec3d& n) {
+  const Vec3d d = w - n * (w.z() / n.z());
+  double phi = std::fmod(std::atan2(d.y(), d.x()), kPi);
+  if (phi < 0.0) phi += kPi;
+  return phi;
+}
+
+/// specular_factor_aniso on a texel with shading normal n (ln = l . n, vn = v . n > 0), tangent tilted_tangent(phi).
+double specular_factor_aniso_tilted(const Vec3d& l, const Vec3d& v, const Vec3d& h, const Vec3d& n, double rt,
+                                    double rb, double phi) {
+  const Vec3d t = tilted_tangent(phi, n), b = n.cross(t);
+  return specular_factor_aniso_local(l.dot(t), l.dot(b), l.dot(n), v.dot(t), v.dot(b), v.dot(n), h.dot(t), h.dot(b),
+                                     h.dot(n), rt, rb);
 }
 
 /// The smallest roughness the views identify (docs/models.md, "BRDF models"): the highlight may not be narrower than
@@ -113,15 +155,103 @@ struct GgxTexelData {
   std::vector<Vec3d> radiance;
 };
 
-/// The least-squares cost of a texel's material for bounded_lm.hpp: residual E (albedo + s (f0 (1 - S) + S)) - L per
-/// observation and colour, s = specular_factor(roughness).
+/// A form's shape: what follows albedo and f0 in its parameters (the roughness first, then the form's own), and per
+/// observation the two factors of its residual E g (albedo + s (f0 (1 - S) + S)) - L: g, the irradiance on the texel
+/// relative to the flat texel's (1 without a shading normal), and s, the specular factor pi D G2 / (4 lz vz) in the
+/// texel's frame. A shape is
+///   static constexpr int kShape;                // its parameter count (q = p[6 ..])
+///   static constexpr bool kTilts;               // g varies (a shading normal)
+///   static constexpr bool kAnalyticRoughness;   // geometry() gives ds/dq[0]; the others are central differences
+///   static bool admissible(const double* q);    // inside the bounds the geometry is defined in
+///   static void geometry(const GgxTexelData&, size_t i, const double* q, double* g, double* s, double* ds_dr);
+struct IsoShape {
+  static constexpr int kShape = 1;
+  static constexpr bool kTilts = false, kAnalyticRoughness = true;
+  static bool admissible(const double*) { return true; }
+  static void geometry(const GgxTexelData& d, size_t i, const double* q, double* g, double* s, double* ds_dr) {
+    *g = 1.0;
+    *s = specular_factor(d.light, d.view[i], d.half[i], q[0], ds_dr);
+  }
+};
+
+/// ggx:iso+n: roughness, normal.x/y. g = (l . n) / lz; s = specular_factor_cos (0 when v . n <= 0; both 0 when
+/// l . n <= 0).
+struct NormalShape {
+  static constexpr int kShape = 3;
+  static constexpr bool kTilts = true, kAnalyticRoughness = true;
+  static bool admissible(const double* q) {
+    Vec3d n = Vec3d::UnitZ();
+    return shading_normal(q[1], q[2], &n);
+  }
+  static void geometry(const GgxTexelData& d, size_t i, const double* q, double* g, double* s, double* ds_dr) {
+    Vec3d n = Vec3d::UnitZ();
+    shading_normal(q[1], q[2], &n);
+    const double ln = d.light.dot(n), vn = d.view[i].dot(n);
+    *g = ln > 0.0 ? ln / d.light.z() : 0.0;
+    *s = 0.0;
+    if (ds_dr) *ds_dr = 0.0;
+    if (ln > 0.0 && vn > 0.0) *s = specular_factor_cos(ln, vn, std::max(d.half[i].dot(n), 1e-12), q[0], ds_dr);
+  }
+};
+
+/// ggx:aniso: roughness (along the tangent), roughness.b, aniso.angle; flat.
+struct AnisoShape {
+  static constexpr int kShape = 3;
+  static constexpr bool kTilts = false, kAnalyticRoughness = false;
+  static bool admissible(const double* q) { return q[0] > 0.0 && q[1] > 0.0; }
+  static void geometry(const GgxTexelData& d, size_t i, const double* q, double* g, double* s, double*) {
+    *g = 1.0;
+    *s = specular_factor_aniso(d.light, d.view[i], d.half[i], q[0], q[1], q[2]);
+  }
+};
+
+/// ggx:aniso+n: aniso's three, then normal.x/y; g and the horizons as NormalShape's.
+struct AnisoNormalShape {
+  static constexpr int kShape = 5;
+  static constexpr bool kTilts = true, kAnalyticRoughness = false;
+  static bool admissible(const double* q) {
+    Vec3d n = Vec3d::UnitZ();
+    return q[0] > 0.0 && q[1] > 0.0 && shading_normal(q[3], q[4], &n);
+  }
+  static void geometry(const GgxTexelData& d, size_t i, const double* q, double* g, double* s, double*) {
+    Vec3d n = Vec3d::UnitZ();
+    shading_normal(q[3], q[4], &n);
+    const double ln = d.light.dot(n), vn = d.view[i].dot(n);
+    *g = ln > 0.0 ? ln / d.light.z() : 0.0;
+    *s = ln > 0.0 && vn > 0.0 ? specular_factor_aniso_tilted(d.light, d.view[i], d.half[i], n, q[0], q[1], q[2]) : 0.0;
+  }
+};
+
+/// The least-squares cost of a form's parameters (albedo, f0, then the shape's) for bounded_lm.hpp: the residual
+/// above per observation and colour. Derivatives in the shape's parameters without analytic ones are central
+/// differences (the model is smooth there; analytic ones would triple the code for no accuracy the fit needs),
+/// one-sided where a step leaves the admissible region (the tilt bound).
+template <class Shape>
 struct GgxTexelCost {
-  static constexpr int kParams = GgxModel::kMaterialParameters;
+  static constexpr int kShape = Shape::kShape, kParams = 6 + kShape;
   using Vec = Eigen::Matrix<double, kParams, 1>;
   using Mat = Eigen::Matrix<double, kParams, kParams>;
+  using Q = std::array<double, kShape>;
   const GgxTexelData* data = nullptr;
 
   double evaluate(const Vec& p, Mat* jtj, Vec* jtr) const {
+    Q q;
+    std::copy(p.data() + 6, p.data() + kParams, q.begin());
+    if (!Shape::admissible(q.data())) return std::numeric_limits<double>::infinity();
+    constexpr double kStep = 1e-6;
+    constexpr int kFirstDifference = Shape::kAnalyticRoughness ? 1 : 0;
+    std::array<Q, kShape> plus{}, minus{};
+    std::array<double, kShape> width{};
+    if (jtj)
+      for (int k = kFirstDifference; k < kShape; ++k) {
+        plus[k] = minus[k] = q;
+        plus[k][k] += kStep;
+        minus[k][k] -= kStep;
+        const bool up = Shape::admissible(plus[k].data()), down = Shape::admissible(minus[k].data());
+        if (!up) plus[k] = q;
+        if (!down) minus[k] = q;
+        width[k] = (up ? kStep : 0.0) + (down ? kStep : 0.0);
+      }
     double cost = 0;
     if (jtj) {
       jtj->setZero();
@@ -129,21 +259,44 @@ struct GgxTexelCost {
     }
     const GgxTexelData& d = *data;
     for (size_t i = 0; i < d.view.size(); ++i) {
-      double ds = 0;
-      const double s = specular_factor(d.light, d.view[i], d.half[i], p[6], jtj ? &ds : nullptr);
+      double g = 0, s = 0;
+      std::array<double, kShape> ds{}, dg{};
+      Shape::geometry(d, i, q.data(), &g, &s, jtj && Shape::kAnalyticRoughness ? &ds[0] : nullptr);
+      if (jtj)
+        for (int k = kFirstDifference; k < kShape; ++k) {
+          double gp, sp, gm, sm;
+          Shape::geometry(d, i, plus[k].data(), &gp, &sp, nullptr);
+          Shape::geometry(d, i, minus[k].data(), &gm, &sm, nullptr);
+          dg[k] = (gp - gm) / width[k];
+          ds[k] = (sp - sm) / width[k];
+        }
       const double sch = d.schlick[i];
       for (int c = 0; c < 3; ++c) {
-        const double e = d.irradiance[c];
+        const double e = d.irradiance[c];  // the flat texel's: E g on a tilted one
         const double fresnel = p[3 + c] * (1.0 - sch) + sch;
-        const double r = e * (p[c] + s * fresnel) - d.radiance[i][c];
+        double r = 0;
+        std::array<double, 2 + kShape> jac{};
+        if constexpr (Shape::kTilts) {
+          const double inner = p[c] + s * fresnel, eg = e * g;
+          r = eg * inner - d.radiance[i][c];
+          jac[0] = eg, jac[1] = eg * s * (1.0 - sch);
+          for (int k = 0; k < kShape; ++k)
+            jac[static_cast<size_t>(2 + k)] =
+                k < kFirstDifference ? eg * fresnel * ds[k] : e * (dg[k] * inner + g * fresnel * ds[k]);
+        } else {
+          r = e * (p[c] + s * fresnel) - d.radiance[i][c];
+          jac[0] = e, jac[1] = e * s * (1.0 - sch);
+          for (int k = 0; k < kShape; ++k) jac[static_cast<size_t>(2 + k)] = e * fresnel * ds[k];
+        }
         cost += 0.5 * r * r;
         if (jtj) {
-          // Nonzero Jacobian entries of this residual: albedo_c, f0_c, roughness.
-          const int idx[3] = {c, 3 + c, 6};
-          const double jac[3] = {e, e * s * (1.0 - sch), e * fresnel * ds};
-          for (int a = 0; a < 3; ++a) {
+          // Nonzero Jacobian entries of this residual: albedo_c, f0_c, the shape's.
+          std::array<int, 2 + kShape> idx{};
+          idx[0] = c, idx[1] = 3 + c;
+          for (int k = 0; k < kShape; ++k) idx[static_cast<size_t>(2 + k)] = 6 + k;
+          for (size_t a = 0; a < idx.size(); ++a) {
             (*jtr)[idx[a]] += jac[a] * r;
-            for (int b = 0; b < 3; ++b) (*jtj)(idx[a], idx[b]) += jac[a] * jac[b];
+            for (size_t b = 0; b < idx.size(); ++b) (*jtj)(idx[a], idx[b]) += jac[a] * jac[b];
           }
         }
       }
@@ -152,11 +305,30 @@ struct GgxTexelCost {
   }
 };
 
-/// The material of one texel: for each roughness of a grid, albedo and f0 per colour by bounded linear least
-/// squares (the radiance is linear in them at a fixed roughness), the best as the start of the bounded LM on all
-/// seven. The grid makes the start independent of where the views happen to fall (no peak to find first).
-std::array<double, GgxModel::kMaterialParameters> fit_texel(const GgxTexelData& d, int max_iterations) {
-  std::array<double, GgxModel::kMaterialParameters> best{};
+/// The bounded LM on a form's parameters from `start`; the start back when the LM's result is not finite. Returns
+/// the final cost.
+template <class Shape>
+double minimise(const GgxTexelData& d, typename GgxTexelCost<Shape>::Vec& p,
+                const typename GgxTexelCost<Shape>::Vec& lo, const typename GgxTexelCost<Shape>::Vec& hi,
+                int max_iterations) {
+  using Cost = GgxTexelCost<Shape>;
+  const Cost cost{&d};
+  const typename Cost::Vec start = p;
+  double final_cost = std::numeric_limits<double>::infinity();
+  minimise_bounded(cost, p, lo, hi, Eigen::Matrix<bool, Cost::kParams, 1>::Constant(false), max_iterations,
+                   &final_cost);
+  if (!p.allFinite() || !(final_cost < std::numeric_limits<double>::infinity()))
+    p = start, final_cost = cost.evaluate(p, nullptr, nullptr);
+  return final_cost;
+}
+
+using Params = std::vector<double>;  // a form's parameters without the light's (material, then the shape's)
+
+/// ggx:iso's texel: for each roughness of a grid, albedo and f0 per colour by bounded linear least squares (the
+/// radiance is linear in them at a fixed roughness), the best as the start of the bounded LM on all seven. The grid
+/// makes the start independent of where the views happen to fall (no peak to find first).
+Params fit_texel(const GgxTexelData& d, int max_iterations) {
+  Params best(GgxModel::kMaterialParameters, 0.0);
   const size_t n = d.view.size();
   if (d.irradiance.maxCoeff() <= 0.0 || n == 0) return best;  // unlit: nothing to measure the material by
   const double r_min = ggx_supported_roughness(d.half);
@@ -164,7 +336,7 @@ std::array<double, GgxModel::kMaterialParameters> fit_texel(const GgxTexelData& 
   std::vector<double> s(n);
   for (double r = r_min; r <= 1.0 + 1e-9; r *= 1.25) {
     for (size_t i = 0; i < n; ++i) s[i] = specular_factor(d.light, d.view[i], d.half[i], r, nullptr);
-    std::array<double, GgxModel::kMaterialParameters> p{};
+    Params p(GgxModel::kMaterialParameters, 0.0);
     p[6] = std::min(r, 1.0);
     double cost = 0;
     for (int c = 0; c < 3; ++c) {
@@ -191,98 +363,18 @@ std::array<double, GgxModel::kMaterialParameters> fit_texel(const GgxTexelData& 
     }
     if (cost < best_cost) best_cost = cost, best = p;
   }
-  GgxTexelCost cost{&d};
-  GgxTexelCost::Vec p = Eigen::Map<const GgxTexelCost::Vec>(best.data());
-  GgxTexelCost::Vec lo, hi;
-  lo << 0, 0, 0, 0, 0, 0, r_min;
+  GgxTexelCost<IsoShape>::Vec p = Eigen::Map<const GgxTexelCost<IsoShape>::Vec>(best.data()), lo, hi;
   const double inf = std::numeric_limits<double>::infinity();
+  lo << 0, 0, 0, 0, 0, 0, r_min;
   hi << inf, inf, inf, 1, 1, 1, 1;
   double final_cost = 0;
-  const GgxTexelCost::Vec start = p;
-  minimise_bounded(cost, p, lo, hi, Eigen::Matrix<bool, 7, 1>::Constant(false), max_iterations, &final_cost);
+  const GgxTexelCost<IsoShape>::Vec start = p;
+  minimise_bounded(GgxTexelCost<IsoShape>{&d}, p, lo, hi, Eigen::Matrix<bool, 7, 1>::Constant(false), max_iterations,
+                   &final_cost);
   if (!p.allFinite()) p = start;
   std::copy(p.data(), p.data() + GgxModel::kMaterialParameters, best.begin());
   return best;
 }
-
-/// The least-squares cost of ggx:iso+n's nine parameters (material and normal.x/y): residual
-/// E g (albedo + s (f0 (1 - S) + S)) - L, g = (l . n) / lz (the irradiance on the tilted texel relative to the flat
-/// one), s = specular_factor_cos (0 when v . n <= 0; all 0 when l . n <= 0). The derivatives in the normal are central
-/// differences (the model is smooth there; analytic ones would triple this code for no accuracy the fit needs).
-struct GgxNormalTexelCost {
-  static constexpr int kParams = GgxModel::kMaterialParameters + 2;
-  using Vec = Eigen::Matrix<double, kParams, 1>;
-  using Mat = Eigen::Matrix<double, kParams, kParams>;
-  const GgxTexelData* data = nullptr;
-
-  /// g and s (and ds/dr when given) of observation i under normal n.
-  void geometry(size_t i, const Vec3d& n, double r, double* g, double* s, double* ds) const {
-    const GgxTexelData& d = *data;
-    const double ln = d.light.dot(n), vn = d.view[i].dot(n);
-    *g = ln > 0.0 ? ln / d.light.z() : 0.0;
-    *s = 0.0;
-    if (ds) *ds = 0.0;
-    if (ln > 0.0 && vn > 0.0) *s = specular_factor_cos(ln, vn, std::max(d.half[i].dot(n), 1e-12), r, ds);
-  }
-
-  double evaluate(const Vec& p, Mat* jtj, Vec* jtr) const {
-    Vec3d n;
-    if (!shading_normal(p[7], p[8], &n)) return std::numeric_limits<double>::infinity();
-    // The normals of the difference quotients: central where both lie inside the tilt bound, one-sided otherwise.
-    constexpr double kStep = 1e-6;
-    Vec3d plus[2], minus[2];
-    double width[2];
-    for (int a = 0; a < 2; ++a) {
-      Vec q = p;
-      q[7 + a] += kStep;
-      const bool up = shading_normal(q[7], q[8], &plus[a]);
-      q[7 + a] -= 2 * kStep;
-      const bool down = shading_normal(q[7], q[8], &minus[a]);
-      if (!up) plus[a] = n;
-      if (!down) minus[a] = n;
-      width[a] = (up ? kStep : 0.0) + (down ? kStep : 0.0);
-    }
-    double cost = 0;
-    if (jtj) {
-      jtj->setZero();
-      jtr->setZero();
-    }
-    const GgxTexelData& d = *data;
-    for (size_t i = 0; i < d.view.size(); ++i) {
-      double g = 0, s = 0, ds = 0;
-      geometry(i, n, p[6], &g, &s, jtj ? &ds : nullptr);
-      double dg[2] = {0, 0}, dsn[2] = {0, 0};
-      if (jtj)
-        for (int a = 0; a < 2; ++a) {
-          double gp, sp, gm, sm;
-          geometry(i, plus[a], p[6], &gp, &sp, nullptr);
-          geometry(i, minus[a], p[6], &gm, &sm, nullptr);
-          dg[a] = (gp - gm) / width[a];
-          dsn[a] = (sp - sm) / width[a];
-        }
-      const double sch = d.schlick[i];
-      for (int c = 0; c < 3; ++c) {
-        const double e = d.irradiance[c];  // the flat texel's: E g on the tilted one
-        const double fresnel = p[3 + c] * (1.0 - sch) + sch;
-        const double inner = p[c] + s * fresnel;
-        const double r = e * g * inner - d.radiance[i][c];
-        cost += 0.5 * r * r;
-        if (jtj) {
-          const double eg = e * g, el = e;
-          const int idx[5] = {c, 3 + c, 6, 7, 8};
-          const double jac[5] = {eg, eg * s * (1.0 - sch), eg * fresnel * ds,
-                                 el * (dg[0] * inner + g * fresnel * dsn[0]),
-                                 el * (dg[1] * inner + g * fresnel * dsn[1])};
-          for (int a = 0; a < 5; ++a) {
-            (*jtr)[idx[a]] += jac[a] * r;
-            for (int b = 0; b < 5; ++b) (*jtj)(idx[a], idx[b]) += jac[a] * jac[b];
-          }
-        }
-      }
-    }
-    return cost;
-  }
-};
 
 /// The rotation into the frame of unit normal n (rows: a tangent, the bitangent, n); isotropic: any tangent does.
 Mat3d frame_of(const Vec3d& n) {
@@ -295,16 +387,29 @@ Mat3d frame_of(const Vec3d& n) {
   return r;
 }
 
-/// ggx:iso+n's texel: from two starting normals, the flat one and the half vector of the brightest observation (the
-/// highlight's peak; its tilt capped at 45 deg), ggx:iso's fit in that normal's frame gives the material, then the
-/// bounded LM on all nine parameters; the lower cost wins. The flat start keeps texels without a highlight (matte,
-/// or seen from too few views) from being tilted toward noise.
-std::array<double, GgxModel::kMaterialParameters + 2> fit_texel_with_normal(const GgxTexelData& d, int max_iterations) {
-  std::array<double, GgxModel::kMaterialParameters + 2> best{};
-  const size_t n = d.view.size();
-  if (d.irradiance.maxCoeff() <= 0.0 || n == 0) return best;
+/// A texel's observations in the frame `r` (frame_of a normal): the flat fits there see the tilted texel (its
+/// irradiance scaled to the tilt); observations below that normal's horizon are left out (no highlight there). False
+/// when the light is below it or no observation is left.
+bool local_data(const GgxTexelData& d, const Mat3d& r, GgxTexelData* local) {
+  local->light = r * d.light;
+  if (local->light.z() <= 0.0) return false;
+  local->irradiance = d.irradiance * (local->light.z() / d.light.z());
+  for (size_t i = 0; i < d.view.size(); ++i) {
+    const Vec3d v = r * d.view[i];
+    if (v.z() <= 0.0) continue;
+    local->view.push_back(v);
+    local->half.push_back(r * d.half[i]);
+    local->schlick.push_back(d.schlick[i]);
+    local->radiance.push_back(d.radiance[i]);
+  }
+  return !local->view.empty();
+}
+
+/// The starting normals of a form with a shading normal: the flat one and the half vector of the brightest
+/// observation (the highlight's peak; its tilt capped at 45 deg).
+std::array<Vec3d, 2> starting_normals(const GgxTexelData& d) {
   size_t brightest = 0;
-  for (size_t i = 1; i < n; ++i)
+  for (size_t i = 1; i < d.view.size(); ++i)
     if (d.radiance[i].sum() > d.radiance[brightest].sum()) brightest = i;
   Vec3d peak = d.half[brightest];
   const double max_sin = std::sqrt(0.5);
@@ -312,124 +417,107 @@ std::array<double, GgxModel::kMaterialParameters + 2> fit_texel_with_normal(cons
     const Eigen::Vector2d xy = peak.head<2>().normalized() * max_sin;
     peak = Vec3d(xy.x(), xy.y(), std::sqrt(0.5));
   }
+  return {Vec3d::UnitZ(), peak};
+}
+
+/// ggx:iso+n's texel: from each starting normal, ggx:iso's fit in that normal's frame gives the material, then the
+/// bounded LM on all nine parameters; the lower cost wins. The flat start keeps texels without a highlight (matte,
+/// or seen from too few views) from being tilted toward noise.
+Params fit_texel_with_normal(const GgxTexelData& d, int max_iterations) {
+  Params best(GgxModel::kMaterialParameters + 2, 0.0);
+  if (d.irradiance.maxCoeff() <= 0.0 || d.view.empty()) return best;
   double best_cost = std::numeric_limits<double>::infinity();
-  GgxNormalTexelCost cost{&d};
-  for (const Vec3d& n0 : {Vec3d(Vec3d::UnitZ()), peak}) {
-    const Mat3d r = frame_of(n0);
+  for (const Vec3d& n0 : starting_normals(d)) {
     GgxTexelData local;
-    local.light = r * d.light;
-    if (local.light.z() <= 0.0) continue;
-    local.irradiance = d.irradiance * (local.light.z() / d.light.z());
-    for (size_t i = 0; i < n; ++i) {
-      const Vec3d v = r * d.view[i];
-      if (v.z() <= 0.0) continue;  // below this normal's horizon: no highlight, left to the nine-parameter fit
-      local.view.push_back(v);
-      local.half.push_back(r * d.half[i]);
-      local.schlick.push_back(d.schlick[i]);
-      local.radiance.push_back(d.radiance[i]);
-    }
-    if (local.view.empty()) continue;
-    const auto material = fit_texel(local, max_iterations);
-    GgxNormalTexelCost::Vec p;
+    if (!local_data(d, frame_of(n0), &local)) continue;
+    const Params material = fit_texel(local, max_iterations);
+    GgxTexelCost<NormalShape>::Vec p, lo, hi;
     for (int k = 0; k < GgxModel::kMaterialParameters; ++k) p[k] = material[static_cast<size_t>(k)];
     p[7] = n0.x(), p[8] = n0.y();
-    GgxNormalTexelCost::Vec lo, hi;
     const double inf = std::numeric_limits<double>::infinity();
-    const double r_min = ggx_supported_roughness(local.half);
-    lo << 0, 0, 0, 0, 0, 0, r_min, -1, -1;
+    lo << 0, 0, 0, 0, 0, 0, ggx_supported_roughness(local.half), -1, -1;
     hi << inf, inf, inf, 1, 1, 1, 1, 1, 1;
-    double final_cost = inf;
-    const GgxNormalTexelCost::Vec start = p;
-    minimise_bounded(cost, p, lo, hi, Eigen::Matrix<bool, 9, 1>::Constant(false), max_iterations, &final_cost);
-    if (!p.allFinite() || !(final_cost < inf)) p = start, final_cost = cost.evaluate(p, nullptr, nullptr);
-    if (final_cost < best_cost) {
-      best_cost = final_cost;
-      std::copy(p.data(), p.data() + p.size(), best.begin());
-    }
+    const double final_cost = minimise<NormalShape>(d, p, lo, hi, max_iterations);
+    if (final_cost < best_cost) best_cost = final_cost, best.assign(p.data(), p.data() + p.size());
   }
   return best;
 }
-
-/// The least-squares cost of ggx:aniso's nine parameters (albedo, f0, roughness along the tangent, along the
-/// bitangent, the tangent's angle): residual E (albedo + s (f0 (1 - S) + S)) - L, s = specular_factor_aniso; the
-/// derivatives in the two roughnesses and the angle are central differences.
-struct GgxAnisoTexelCost {
-  static constexpr int kParams = GgxModel::kMaterialParameters + 2;
-  using Vec = Eigen::Matrix<double, kParams, 1>;
-  using Mat = Eigen::Matrix<double, kParams, kParams>;
-  const GgxTexelData* data = nullptr;
-
-  double evaluate(const Vec& p, Mat* jtj, Vec* jtr) const {
-    const GgxTexelData& d = *data;
-    if (!(p[6] > 0.0) || !(p[7] > 0.0)) return std::numeric_limits<double>::infinity();
-    double cost = 0;
-    if (jtj) {
-      jtj->setZero();
-      jtr->setZero();
-    }
-    constexpr double kStep = 1e-6;
-    for (size_t i = 0; i < d.view.size(); ++i) {
-      auto factor = [&](double rt, double rb, double phi) {
-        return specular_factor_aniso(d.light, d.view[i], d.half[i], rt, rb, phi);
-      };
-      const double s = factor(p[6], p[7], p[8]);
-      double ds[3] = {0, 0, 0};
-      if (jtj) {
-        ds[0] = (factor(p[6] + kStep, p[7], p[8]) - factor(p[6] - kStep, p[7], p[8])) / (2 * kStep);
-        ds[1] = (factor(p[6], p[7] + kStep, p[8]) - factor(p[6], p[7] - kStep, p[8])) / (2 * kStep);
-        ds[2] = (factor(p[6], p[7], p[8] + kStep) - factor(p[6], p[7], p[8] - kStep)) / (2 * kStep);
-      }
-      const double sch = d.schlick[i];
-      for (int c = 0; c < 3; ++c) {
-        const double e = d.irradiance[c];
-        const double fresnel = p[3 + c] * (1.0 - sch) + sch;
-        const double r = e * (p[c] + s * fresnel) - d.radiance[i][c];
-        cost += 0.5 * r * r;
-        if (jtj) {
-          const int idx[5] = {c, 3 + c, 6, 7, 8};
-          const double jac[5] = {e, e * s * (1.0 - sch), e * fresnel * ds[0], e * fresnel * ds[1], e * fresnel * ds[2]};
-          for (int a = 0; a < 5; ++a) {
-            (*jtr)[idx[a]] += jac[a] * r;
-            for (int b = 0; b < 5; ++b) (*jtj)(idx[a], idx[b]) += jac[a] * jac[b];
-          }
-        }
-      }
-    }
-    return cost;
-  }
-};
 
 /// ggx:aniso's texel: ggx:iso's fit gives the roughness r; from four tangent angles (0, 45, 90, 135 deg) with the
 /// roughnesses split around r, the bounded LM on all nine; the lowest cost wins, the isotropic fit itself included
 /// (so no texel fits worse than ggx:iso). Then the canonical form: roughness >= roughness.b (swapped with the angle
 /// turned by 90 deg, the same BRDF) and the angle in [0, pi).
-std::array<double, GgxModel::kMaterialParameters + 2> fit_texel_aniso(const GgxTexelData& d, int max_iterations) {
-  std::array<double, GgxModel::kMaterialParameters + 2> best{};
+Params fit_texel_aniso(const GgxTexelData& d, int max_iterations) {
+  Params best(GgxModel::kMaterialParameters + 2, 0.0);
   if (d.irradiance.maxCoeff() <= 0.0 || d.view.empty()) return best;
-  const auto iso = fit_texel(d, max_iterations);
+  const Params iso = fit_texel(d, max_iterations);
   const double r_min = ggx_supported_roughness(d.half);
-  GgxAnisoTexelCost cost{&d};
-  GgxAnisoTexelCost::Vec p;
+  using Vec = GgxTexelCost<AnisoShape>::Vec;
+  Vec p;
   for (int k = 0; k < GgxModel::kMaterialParameters; ++k) p[k] = iso[static_cast<size_t>(k)];
   p[7] = p[6], p[8] = 0.0;
-  GgxAnisoTexelCost::Vec best_p = p;
-  double best_cost = cost.evaluate(p, nullptr, nullptr);
+  Vec best_p = p;
+  double best_cost = GgxTexelCost<AnisoShape>{&d}.evaluate(p, nullptr, nullptr);
   const double inf = std::numeric_limits<double>::infinity();
-  GgxAnisoTexelCost::Vec lo, hi;
+  Vec lo, hi;
   lo << 0, 0, 0, 0, 0, 0, r_min, r_min, -inf;
   hi << inf, inf, inf, 1, 1, 1, 1, 1, inf;
   for (int k = 0; k < 4; ++k) {
-    GgxAnisoTexelCost::Vec q = best_p;
+    Vec q = best_p;
     for (int j = 0; j < GgxModel::kMaterialParameters; ++j) q[j] = iso[static_cast<size_t>(j)];
     q[6] = std::min(1.0, iso[6] * 1.2), q[7] = std::max(r_min, iso[6] / 1.2), q[8] = k * kPi / 4.0;
     double final_cost = inf;
-    minimise_bounded(cost, q, lo, hi, Eigen::Matrix<bool, 9, 1>::Constant(false), max_iterations, &final_cost);
+    minimise_bounded(GgxTexelCost<AnisoShape>{&d}, q, lo, hi, Eigen::Matrix<bool, 9, 1>::Constant(false),
+                     max_iterations, &final_cost);
     if (q.allFinite() && final_cost < best_cost) best_cost = final_cost, best_p = q;
   }
   if (best_p[6] < best_p[7]) std::swap(best_p[6], best_p[7]), best_p[8] += kPi / 2.0;
   best_p[8] = std::fmod(best_p[8], kPi);
   if (best_p[8] < 0.0) best_p[8] += kPi;
-  std::copy(best_p.data(), best_p.data() + best_p.size(), best.begin());
+  best.assign(best_p.data(), best_p.data() + best_p.size());
+  return best;
+}
+
+/// ggx:aniso+n's texel, from the two forms' starts: ggx:iso+n's fit gives the shading normal, ggx:aniso's fit in that
+/// normal's frame the roughnesses and the tangent (turned back to the surface's angle); then the bounded LM on all
+/// eleven. ggx:iso+n's own result (roughness.b = roughness) competes, so no texel fits worse than ggx:iso+n. Then the
+/// canonical form: roughness >= roughness.b (swapped, the tangent becoming the old bitangent) and the angle in
+/// [0, pi).
+Params fit_texel_aniso_normal(const GgxTexelData& d, int max_iterations) {
+  Params best(GgxModel::kMaterialParameters + 4, 0.0);
+  if (d.irradiance.maxCoeff() <= 0.0 || d.view.empty()) return best;
+  const Params with_normal = fit_texel_with_normal(d, max_iterations);
+  Vec3d n = Vec3d::UnitZ();
+  if (!shading_normal(with_normal[7], with_normal[8], &n)) return best;
+  using Vec = GgxTexelCost<AnisoNormalShape>::Vec;
+  const GgxTexelCost<AnisoNormalShape> cost{&d};
+  Vec best_p;
+  for (int k = 0; k < GgxModel::kMaterialParameters; ++k) best_p[k] = with_normal[static_cast<size_t>(k)];
+  best_p[7] = best_p[6], best_p[8] = 0.0, best_p[9] = n.x(), best_p[10] = n.y();
+  double best_cost = cost.evaluate(best_p, nullptr, nullptr);
+  const Mat3d r = frame_of(n);
+  GgxTexelData local;
+  if (local_data(d, r, &local)) {
+    const Params aniso = fit_texel_aniso(local, max_iterations);
+    Vec p;
+    for (int k = 0; k < 8; ++k) p[k] = aniso[static_cast<size_t>(k)];
+    const Vec3d tangent = r.transpose() * Vec3d(std::cos(aniso[8]), std::sin(aniso[8]), 0.0);
+    p[8] = tilted_tangent_angle(tangent, n), p[9] = n.x(), p[10] = n.y();
+    const double inf = std::numeric_limits<double>::infinity(), r_min = ggx_supported_roughness(local.half);
+    Vec lo, hi;
+    lo << 0, 0, 0, 0, 0, 0, r_min, r_min, -inf, -1, -1;
+    hi << inf, inf, inf, 1, 1, 1, 1, 1, inf, 1, 1;
+    const double final_cost = minimise<AnisoNormalShape>(d, p, lo, hi, max_iterations);
+    if (final_cost < best_cost) best_cost = final_cost, best_p = p;
+  }
+  if (!shading_normal(best_p[9], best_p[10], &n)) return best;
+  if (best_p[6] < best_p[7]) {
+    std::swap(best_p[6], best_p[7]);
+    best_p[8] = tilted_tangent_angle(n.cross(tilted_tangent(best_p[8], n)), n);  // the old bitangent's angle
+  }
+  best_p[8] = std::fmod(best_p[8], kPi);
+  if (best_p[8] < 0.0) best_p[8] += kPi;
+  best.assign(best_p.data(), best_p.data() + best_p.size());
   return best;
 }
 
@@ -465,10 +553,20 @@ std::string GgxFitOptions::fingerprint() const {
   return fmt::format("light={};max_iterations={}", light ? light->describe() : std::string("none"), max_iterations);
 }
 
+std::string GgxModel::name() const {
+  const Form form = shading_normal_ ? (aniso_ ? Form::kAnisoNormal : Form::kIsoNormal)
+                    : aniso_        ? Form::kAniso
+                                    : Form::kIso;
+  for (const FormName& f : kFormNames)
+    if (f.form == form) return std::string("ggx:") + f.settings;
+  VDRIG_CHECK(false, "GgxModel: a form without a name");
+  return {};
+}
+
 std::vector<std::string> GgxModel::channels() const {
   std::vector<std::string> c = {"albedo.R", "albedo.G", "albedo.B", "f0.R", "f0.G", "f0.B", "roughness"};
-  if (shading_normal_) c.insert(c.end(), {"normal.x", "normal.y"});
   if (aniso_) c.insert(c.end(), {"roughness.b", "aniso.angle"});
+  if (shading_normal_) c.insert(c.end(), {"normal.x", "normal.y"});
   c.insert(c.end(), {"light.x", "light.y", "light.z", "E.R", "E.G", "E.B"});
   return c;
 }
@@ -480,8 +578,9 @@ GgxMaterial GgxModel::material(std::span<const double> p) {
 
 GgxMaterial GgxModel::texel_material(std::span<const double> p) const {
   GgxMaterial m = material(p);
-  if (shading_normal_ && !shading_normal(p[kNormal], p[kNormal + 1], &m.normal, kTiltStorageSlack))
-    m.normal = Vec3d(p[kNormal], p[kNormal + 1], 0.0).normalized();  // past the tilt bound: at the horizon
+  const size_t nc = static_cast<size_t>(normal_channel());
+  if (shading_normal_ && !shading_normal(p[nc], p[nc + 1], &m.normal, kTiltStorageSlack))
+    m.normal = Vec3d(p[nc], p[nc + 1], 0.0).normalized();  // past the tilt bound: at the horizon
   if (aniso_) m.roughness_b = p[kMaterialParameters], m.angle = p[kMaterialParameters + 1];
   return m;
 }
@@ -491,8 +590,10 @@ Vec3d GgxModel::brdf(const GgxMaterial& m, const Vec3d& l, const Vec3d& v) {
   if (ln <= 0.0 || vn <= 0.0) return Vec3d::Zero();
   const Vec3d h = (l + v).normalized();
   const double r = std::max(m.roughness, kMinRoughness);
-  if (m.roughness_b > 0.0) {  // anisotropic (ggx:aniso: flat normal)
-    const double s = specular_factor_aniso(l, v, h, r, std::max(m.roughness_b, kMinRoughness), m.angle);
+  if (m.roughness_b > 0.0) {  // anisotropic; the flat texel keeps the rotation form (ggx:aniso's figures)
+    const double rb = std::max(m.roughness_b, kMinRoughness);
+    const double s = m.normal == Vec3d::UnitZ() ? specular_factor_aniso(l, v, h, r, rb, m.angle)
+                                                : specular_factor_aniso_tilted(l, v, h, m.normal, r, rb, m.angle);
     const double sch = std::pow(1.0 - std::clamp(v.dot(h), 0.0, 1.0), 5.0);
     return (m.albedo + (m.f0 + (Vec3d::Ones() - m.f0) * sch) * s) / kPi;
   }
@@ -524,9 +625,10 @@ Vec3d GgxModel::evaluate(std::span<const double> p, const Vec3d& v) const {
 
 std::string GgxModel::check_parameters(std::span<const double> p) const {
   const int light_at = light_channel(), irradiance_at = light_at + 3;
-  if (shading_normal_ && p[kNormal] * p[kNormal] + p[kNormal + 1] * p[kNormal + 1] > kMaxTilt + kTiltStorageSlack)
+  const size_t nc = static_cast<size_t>(normal_channel());
+  if (shading_normal_ && p[nc] * p[nc] + p[nc + 1] * p[nc + 1] > kMaxTilt + kTiltStorageSlack)
     return fmt::format("the normal is tilted past the bound (x^2 + y^2 = {} > {})",
-                       p[kNormal] * p[kNormal] + p[kNormal + 1] * p[kNormal + 1], kMaxTilt);
+                       p[nc] * p[nc] + p[nc + 1] * p[nc + 1], kMaxTilt);
   for (int i = 0; i < 3; ++i) {
     if (p[static_cast<size_t>(i)] < 0) return fmt::format("albedo is negative ({})", p[static_cast<size_t>(i)]);
     if (p[static_cast<size_t>(3 + i)] < 0 || p[static_cast<size_t>(3 + i)] > 1)
@@ -573,105 +675,81 @@ std::vector<LobeSummary> GgxModel::lobes(std::span<const double> p) const {
 std::vector<double> GgxModel::sample_parameters(unsigned seed) const {
   const double phase = 0.9 * static_cast<double>(seed);
   const Vec3d l = Vec3d(0.3 * std::cos(phase), 0.3 * std::sin(phase), 0.9).normalized();
-  if (aniso_)
-    return {0.5 + 0.1 * std::sin(phase),
-            0.4,
-            0.3,
-            0.04,
-            0.05,
-            0.06,
-            0.6 + 0.1 * std::cos(1.3 * phase),
-            0.3 + 0.1 * std::sin(0.7 * phase),
-            1.5 + 1.2 * std::sin(1.9 * phase),
-            l.x(),
-            l.y(),
-            l.z(),
-            1.5,
-            1.4,
-            1.3};
-  if (shading_normal_)
-    return {0.5 + 0.1 * std::sin(phase),
-            0.4,
-            0.3,
-            0.04,
-            0.05,
-            0.06,
-            0.5 + 0.1 * std::cos(1.3 * phase),
-            0.15 * std::sin(2.1 * phase),
-            0.1 * std::cos(0.7 * phase),
-            l.x(),
-            l.y(),
-            l.z(),
-            1.5,
-            1.4,
-            1.3};
-  return {0.5 + 0.1 * std::sin(phase),
-          0.4,
-          0.3 + 0.1 * std::cos(phase),
-          0.04,
-          0.05 + 0.02 * std::sin(phase),
-          0.06,
-          0.55 + 0.1 * std::sin(1.7 * phase),
-          l.x(),
-          l.y(),
-          l.z(),
-          1.5,
-          1.4,
-          1.3};
+  std::vector<double> p = {0.5 + 0.1 * std::sin(phase), 0.4, 0.3, 0.04, 0.05, 0.06, 0.5 + 0.1 * std::cos(1.3 * phase)};
+  if (!aniso_ && !shading_normal_) {
+    p[2] = 0.3 + 0.1 * std::cos(phase), p[4] = 0.05 + 0.02 * std::sin(phase);
+    p[6] = 0.55 + 0.1 * std::sin(1.7 * phase);
+  }
+  if (aniso_) {
+    p[6] = 0.6 + 0.1 * std::cos(1.3 * phase);
+    p.insert(p.end(), {0.3 + 0.1 * std::sin(0.7 * phase), 1.5 + 1.2 * std::sin(1.9 * phase)});
+  }
+  if (shading_normal_) p.insert(p.end(), {0.15 * std::sin(2.1 * phase), 0.1 * std::cos(0.7 * phase)});
+  p.insert(p.end(), {l.x(), l.y(), l.z(), 1.5, 1.4, 1.3});
+  return p;
 }
 
 std::string GgxModel::glsl(const std::function<std::string(int parameter)>& parameter) const {
   auto vec3_of = [&](int i) {
     return "vec3(" + parameter(i) + ", " + parameter(i + 1) + ", " + parameter(i + 2) + ")";
   };
+  auto roughness = [&](int i) { return "max(" + parameter(i) + ", " + glsl_float(kMinRoughness) + ")"; };
   std::string s = "vec3 model(ivec2 t, vec3 v) {\n";
   s += "  vec3 albedo = " + vec3_of(0) + ";\n  vec3 f0 = " + vec3_of(3) + ";\n";
   s += "  vec3 l = " + vec3_of(light_channel()) + ";\n  vec3 E = " + vec3_of(light_channel() + 3) + ";\n";
-  if (aniso_) {
-    // As evaluate(): sim/ggx.hpp's anisotropic D and Lambda in the frame of the tangent at aniso.angle.
-    s += "  if (l.z <= 0.0 || v.z <= 0.0) return E * albedo;\n";
-    s += "  float at = max(" + parameter(6) + ", " + glsl_float(kMinRoughness) + ");\n  at *= at;\n";
-    s += "  float ab = max(" + parameter(kMaterialParameters) + ", " + glsl_float(kMinRoughness) + ");\n  ab *= ab;\n";
-    s += "  float phi = " + parameter(kMaterialParameters + 1) + ";\n";
-    s += "  mat2 rot = mat2(cos(phi), -sin(phi), sin(phi), cos(phi));\n";  // columns: (c, -s), (s, c)
-    s += "  vec3 h = normalize(l + v);\n";
-    s += "  vec2 hl = rot * h.xy, ll = rot * l.xy, vl = rot * v.xy;\n";
-    s += "  float q = (hl.x / at) * (hl.x / at) + (hl.y / ab) * (hl.y / ab) + h.z * h.z;\n";
-    s += "  float gl = sqrt(1.0 + ((at * ll.x) * (at * ll.x) + (ab * ll.y) * (ab * ll.y)) / (l.z * l.z));\n";
-    s += "  float gv = sqrt(1.0 + ((at * vl.x) * (at * vl.x) + (ab * vl.y) * (ab * vl.y)) / (v.z * v.z));\n";
-    s += "  float spec = 1.0 / (at * ab * q * q) / (0.5 * (gl + gv)) / (4.0 * l.z * v.z);\n";
-    s += "  float sch = pow(1.0 - clamp(dot(v, h), 0.0, 1.0), 5.0);\n";
-    s += "  return E * (albedo + (f0 + (1.0 - f0) * sch) * spec);\n}\n";
-    return s;
-  }
+  // The horizons and the irradiance, as evaluate(): the flat texel's E scaled to a shading normal's tilt.
   if (shading_normal_) {
-    // As evaluate(): the formula in the shading normal's frame, from cosines; the flat texel's E scaled to the tilt.
-    s += "  float nx = " + parameter(kNormal) + ", ny = " + parameter(kNormal + 1) + ";\n";
+    s += "  float nx = " + parameter(normal_channel()) + ", ny = " + parameter(normal_channel() + 1) + ";\n";
     s += "  vec3 n = vec3(nx, ny, sqrt(max(0.0, 1.0 - nx * nx - ny * ny)));\n";
     s += "  float ln = dot(l, n), vn = dot(v, n);\n";
     s += "  if (l.z <= 0.0 || ln <= 0.0) return vec3(0.0);\n";
     s += "  E *= ln / l.z;\n";
     s += "  if (vn <= 0.0 || v.z <= 0.0) return E * albedo;\n";
-    s += "  float r = max(" + parameter(6) + ", " + glsl_float(kMinRoughness) + ");\n";
+  } else {
+    s += "  if (l.z <= 0.0 || v.z <= 0.0) return E * albedo;\n";
+  }
+  // The specular factor pi D G2 / (4 (l . n) (v . n)).
+  if (aniso_) {
+    // sim/ggx.hpp's anisotropic D and Lambda in the frame of the tangent at aniso.angle (projected onto the shading
+    // normal's plane for ggx:aniso+n).
+    s += "  float at = " + roughness(6) + ";\n  at *= at;\n";
+    s += "  float ab = " + roughness(kMaterialParameters) + ";\n  ab *= ab;\n";
+    s += "  float phi = " + parameter(kMaterialParameters + 1) + ";\n";
+    s += "  vec3 h = normalize(l + v);\n";
+    if (shading_normal_) {
+      s += "  vec3 dir = vec3(cos(phi), sin(phi), 0.0);\n";
+      s += "  vec3 tg = normalize(dir - n * dot(n, dir)), bt = cross(n, tg);\n";
+      s += "  vec2 hl = vec2(dot(h, tg), dot(h, bt)), ll = vec2(dot(l, tg), dot(l, bt)), vl = vec2(dot(v, tg), "
+           "dot(v, bt));\n";
+      s += "  float hn = dot(h, n);\n";
+    } else {
+      s += "  mat2 rot = mat2(cos(phi), -sin(phi), sin(phi), cos(phi));\n";  // columns: (c, -s), (s, c)
+      s += "  vec2 hl = rot * h.xy, ll = rot * l.xy, vl = rot * v.xy;\n";
+      s += "  float hn = h.z, ln = l.z, vn = v.z;\n";
+    }
+    s += "  float q = (hl.x / at) * (hl.x / at) + (hl.y / ab) * (hl.y / ab) + hn * hn;\n";
+    s += "  float gl = sqrt(1.0 + ((at * ll.x) * (at * ll.x) + (ab * ll.y) * (ab * ll.y)) / (ln * ln));\n";
+    s += "  float gv = sqrt(1.0 + ((at * vl.x) * (at * vl.x) + (ab * vl.y) * (ab * vl.y)) / (vn * vn));\n";
+    s += "  float spec = 1.0 / (at * ab * q * q) / (0.5 * (gl + gv)) / (4.0 * ln * vn);\n";
+  } else {
+    // Trowbridge-Reitz and Smith in the cosines (the normal's frame: wx^2 + wy^2 = 1 - (w . n)^2) or, flat, in the
+    // components (ggx:iso's figures).
+    s += "  float r = " + roughness(6) + ";\n";
     s += "  float a2 = r * r * r * r;\n";
     s += "  vec3 h = normalize(l + v);\n";
-    s += "  float hn = max(dot(h, n), 1e-12);\n";
-    s += "  float k = hn * hn * (a2 - 1.0) + 1.0;\n";
-    s += "  float gl = sqrt(1.0 + a2 * max(0.0, 1.0 - ln * ln) / (ln * ln));\n";
-    s += "  float gv = sqrt(1.0 + a2 * max(0.0, 1.0 - vn * vn) / (vn * vn));\n";
-    s += "  float spec = a2 / (k * k) / (0.5 * (gl + gv)) / (4.0 * ln * vn);\n";
-    s += "  float sch = pow(1.0 - clamp(dot(v, h), 0.0, 1.0), 5.0);\n";
-    s += "  return E * (albedo + (f0 + (1.0 - f0) * sch) * spec);\n}\n";
-    return s;
+    if (shading_normal_) {
+      s += "  float hn = max(dot(h, n), 1e-12);\n";
+      s += "  float k = hn * hn * (a2 - 1.0) + 1.0;\n";
+      s += "  float gl = sqrt(1.0 + a2 * max(0.0, 1.0 - ln * ln) / (ln * ln));\n";
+      s += "  float gv = sqrt(1.0 + a2 * max(0.0, 1.0 - vn * vn) / (vn * vn));\n";
+      s += "  float spec = a2 / (k * k) / (0.5 * (gl + gv)) / (4.0 * ln * vn);\n";
+    } else {
+      s += "  float k = h.z * h.z * (a2 - 1.0) + 1.0;\n";
+      s += "  float gl = sqrt(1.0 + a2 * (l.x * l.x + l.y * l.y) / (l.z * l.z));\n";
+      s += "  float gv = sqrt(1.0 + a2 * (v.x * v.x + v.y * v.y) / (v.z * v.z));\n";
+      s += "  float spec = a2 / (k * k) / (0.5 * (gl + gv)) / (4.0 * l.z * v.z);\n";
+    }
   }
-  s += "  if (l.z <= 0.0 || v.z <= 0.0) return E * albedo;\n";
-  s += "  float r = max(" + parameter(6) + ", " + glsl_float(kMinRoughness) + ");\n";
-  s += "  float a2 = r * r * r * r;\n";
-  s += "  vec3 h = normalize(l + v);\n";
-  s += "  float k = h.z * h.z * (a2 - 1.0) + 1.0;\n";
-  s += "  float gl = sqrt(1.0 + a2 * (l.x * l.x + l.y * l.y) / (l.z * l.z));\n";
-  s += "  float gv = sqrt(1.0 + a2 * (v.x * v.x + v.y * v.y) / (v.z * v.z));\n";
-  s += "  float spec = a2 / (k * k) / (0.5 * (gl + gv)) / (4.0 * l.z * v.z);\n";
   s += "  float sch = pow(1.0 - clamp(dot(v, h), 0.0, 1.0), 5.0);\n";
   s += "  return E * (albedo + (f0 + (1.0 - f0) * sch) * spec);\n}\n";
   return s;
@@ -692,6 +770,11 @@ std::string GgxModel::options_fingerprint(const MapFitOptions& options) const {
 }
 
 Result<ParameterMap> GgxModel::fit_map(const MapFitContext& context) const {
+  return fit_region(context, 0, 0, context.spec);
+}
+
+Result<ParameterMap> GgxModel::fit_region(const MapFitContext& context, int s0, int t0,
+                                          const ObservationMapSpec& whole) const {
   const MapFitOptions& options = context.options;
   VDRIG_TRY(check_options(options));
   const GgxFitOptions& o = options.model_options.get<GgxFitOptions>();
@@ -706,14 +789,18 @@ Result<ParameterMap> GgxModel::fit_map(const MapFitContext& context) const {
   const bool holding_out = !options.held_out.empty();
   if (holding_out) map.set_holdout_rms(0, 0, Vec3d::Zero());  // channels before threads
   map.image().string_attributes["vdrig.session_light"] = light.describe();
+  const auto fit_material = shading_normal_ ? (aniso_ ? fit_texel_aniso_normal : fit_texel_with_normal)
+                                            : (aniso_ ? fit_texel_aniso : fit_texel);
   std::vector<GgxTexelData> work(static_cast<size_t>(context.workers));
   auto fit_one = [&](int worker, int s, int t, const TexelObservations& texel, const TexelObservations& held) {
     FitQuality q, hq;
     q.samples = static_cast<int>(texel.size());
     if (static_cast<int>(texel.size()) >= options.min_observations) {
       GgxTexelData& d = work[static_cast<size_t>(worker)];
-      light.at(texel_centre_mm(s, t, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm) / 1000.0, &d.light,
-               &d.irradiance);
+      // The light's direction and irradiance at the texel's place on the whole map.
+      const Vec3d centre_mm =
+          texel_centre_mm(s0 + s, t0 + t, whole.texels_s, whole.texels_t, whole.width_mm, whole.height_mm);
+      light.at(centre_mm / 1000.0, &d.light, &d.irradiance);
       d.view.clear(), d.half.clear(), d.schlick.clear(), d.radiance.clear();
       for (size_t i = 0; i < texel.size(); ++i) {
         const Vec3d v = texel.direction[i].cast<double>().normalized();
@@ -726,16 +813,9 @@ Result<ParameterMap> GgxModel::fit_map(const MapFitContext& context) const {
       }
       std::vector<double> p(static_cast<size_t>(parameter_count()), 0.0);
       if (d.light.z() > 0.0) {
-        if (shading_normal_) {
-          const auto material = fit_texel_with_normal(d, o.max_iterations);
-          std::copy(material.begin(), material.end(), p.begin());
-        } else if (aniso_) {
-          const auto material = fit_texel_aniso(d, o.max_iterations);
-          std::copy(material.begin(), material.end(), p.begin());
-        } else {
-          const auto material = fit_texel(d, o.max_iterations);
-          std::copy(material.begin(), material.end(), p.begin());
-        }
+        const Params material = fit_material(d, o.max_iterations);
+        VDRIG_CHECK(static_cast<int>(material.size()) == lc, "GgxModel: a form's fit of the wrong size");
+        std::copy(material.begin(), material.end(), p.begin());
         for (int c = 0; c < 3; ++c) {
           p[static_cast<size_t>(lc + c)] = d.light[c];
           p[static_cast<size_t>(lc + 3 + c)] = d.irradiance[c];
@@ -752,24 +832,59 @@ Result<ParameterMap> GgxModel::fit_map(const MapFitContext& context) const {
   return map;
 }
 
-Result<std::unique_ptr<ModelTiledFit>> GgxModel::tiled_fit(const MapFitOptions&, const ObservationMapSpec&) const {
-  return make_error(ErrorCode::kUnsupported,
-                    "ggx: tiled and distributed fits are not supported yet (the fit depends on the texel's position "
-                    "under the light, which tile jobs do not keep); fit without --mpi");
+namespace {
+
+/// The per-texel tiled fit with the map's attribute the tile maps' channels do not carry (vdrig.session_light).
+class GgxTiledFit final : public ModelTiledFit {
+ public:
+  GgxTiledFit(std::unique_ptr<ModelTiledFit> tiles, std::string light)
+      : tiles_(std::move(tiles)), light_(std::move(light)) {}
+  Result<TileBytes> fit_tile(int pass, const TileWork& work, const TileBytes* previous) override {
+    return tiles_->fit_tile(pass, work, previous);
+  }
+  Result<ParameterMap> assemble(const std::vector<TileRect>& tiles,
+                                const std::function<Result<TileBytes>(int tile)>& record) override {
+    auto map = tiles_->assemble(tiles, record);
+    if (map) map->image().string_attributes["vdrig.session_light"] = light_;
+    return map;
+  }
+
+ private:
+  std::unique_ptr<ModelTiledFit> tiles_;
+  std::string light_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<ModelTiledFit>> GgxModel::tiled_fit(const MapFitOptions& options,
+                                                           const ObservationMapSpec& spec) const {
+  auto self = std::static_pointer_cast<const GgxModel>(shared_from_this());
+  auto tiles = per_texel_tiled_fit(
+      self, options, spec, [self](const MapFitContext& context, const TileRect& rect, const ObservationMapSpec& whole) {
+        return self->fit_region(context, rect.s0, rect.t0, whole);
+      });
+  if (!tiles) return tiles.error();
+  const auto& light = options.model_options.get<GgxFitOptions>().light;  // checked by per_texel_tiled_fit
+  return std::unique_ptr<ModelTiledFit>(
+      std::make_unique<GgxTiledFit>(std::move(tiles.value()), light ? light->describe() : std::string()));
 }
 
 void register_ggx_model(ModelRegistry& registry) {
-  registry.add({"ggx",
-                "ggx:iso|ggx:iso+n|ggx:aniso",
+  std::string syntax;
+  std::vector<std::string> names;
+  for (const FormName& f : kFormNames) {
+    names.push_back(std::string("ggx:") + f.settings);
+    syntax += (syntax.empty() ? "" : "|") + names.back();
+  }
+  registry.add({"ggx", syntax,
                 [](const std::string& settings) -> Result<ModelPtr> {
-                  if (settings == "iso") return ModelPtr(std::make_shared<GgxModel>());
-                  if (settings == "iso+n") return ModelPtr(std::make_shared<GgxModel>(GgxModel::Form::kIsoNormal));
-                  if (settings == "aniso") return ModelPtr(std::make_shared<GgxModel>(GgxModel::Form::kAniso));
+                  for (const FormName& f : kFormNames)
+                    if (settings == f.settings) return ModelPtr(std::make_shared<GgxModel>(f.form));
                   return make_error(ErrorCode::kInvalidArgument,
-                                    "the form must be iso (ggx:iso), iso+n (ggx:iso+n, with a shading normal) or "
-                                    "aniso (ggx:aniso, two roughnesses and an angle)");
+                                    "the form must be iso (ggx:iso), iso+n (ggx:iso+n, with a shading normal), aniso "
+                                    "(ggx:aniso, two roughnesses and an angle) or aniso+n (ggx:aniso+n, both)");
                 },
-                {"ggx:iso", "ggx:iso+n", "ggx:aniso"}});
+                names});
 }
 
 }  // namespace vdrig::fitting

@@ -11,8 +11,8 @@ namespace {
 /// the tile's); a record is the tile map's channels: names, then w x h floats each.
 class PerTexelTiledFit final : public ModelTiledFit {
  public:
-  PerTexelTiledFit(ModelPtr model, const MapFitOptions& options, const ObservationMapSpec& spec)
-      : model_(std::move(model)), options_(options), spec_(spec) {}
+  PerTexelTiledFit(ModelPtr model, const MapFitOptions& options, const ObservationMapSpec& spec, RectFit fit)
+      : model_(std::move(model)), options_(options), spec_(spec), fit_(std::move(fit)) {}
 
   /// The model's fit_map on `rect`'s texels (none when `work` is null: the options are checked, nothing fitted).
   Result<ParameterMap> fit_rect(const TileRect& rect, const TileWork* work) const {
@@ -27,7 +27,7 @@ class PerTexelTiledFit final : public ModelTiledFit {
             visit(worker, s - rect.s0, t - rect.t0, fit, held);
           });
     };
-    return model_->fit_map(context);
+    return fit_ ? fit_(context, rect, spec_) : model_->fit_map(context);
   }
 
   Result<TileBytes> fit_tile(int, const TileWork& work, const TileBytes*) override {
@@ -71,13 +71,19 @@ class PerTexelTiledFit final : public ModelTiledFit {
   ModelPtr model_;
   MapFitOptions options_;
   ObservationMapSpec spec_;
+  RectFit fit_;  // empty: the model's fit_map
 };
 
 }  // namespace
 
 Result<std::unique_ptr<ModelTiledFit>> per_texel_tiled_fit(ModelPtr model, const MapFitOptions& options,
                                                            const ObservationMapSpec& spec) {
-  auto fit = std::make_unique<PerTexelTiledFit>(std::move(model), options, spec);
+  return per_texel_tiled_fit(std::move(model), options, spec, nullptr);
+}
+
+Result<std::unique_ptr<ModelTiledFit>> per_texel_tiled_fit(ModelPtr model, const MapFitOptions& options,
+                                                           const ObservationMapSpec& spec, RectFit fit_rect) {
+  auto fit = std::make_unique<PerTexelTiledFit>(std::move(model), options, spec, std::move(fit_rect));
   // The options are checked by the model's fit_map on a 1 x 1 map with no texel visited.
   auto checked = fit->fit_rect(TileRect{0, 0, 0, 1, 1}, nullptr);
   if (!checked) return checked.error();

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "vdrig/sim/ggx.hpp"
 #include "vdrig/sim/scene.hpp"
 #include "vdrig/sim/texel_recording.hpp"
+#include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::fitting {
 namespace {
@@ -82,6 +84,25 @@ ObservationMap recorded_map(const sim::Scene& scene, int S, unsigned seed) {
   return map;
 }
 
+/// The options of a fit with `model` under the scene's light (`threads` 0: the default).
+MapFitOptions ggx_options(const std::string& model, const sim::Scene& scene, int threads = 0) {
+  MapFitOptions options;
+  options.model = parse_model(model).value();
+  if (threads > 0) options.threads = threads;
+  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
+  return options;
+}
+
+/// `model`'s map of obs under the scene's light; the fit's wall time per texel in *ms_per_texel when given.
+Result<ParameterMap> fit_ggx(const ObservationMap& obs, const sim::Scene& scene, const std::string& model,
+                             int threads = 0, double* ms_per_texel = nullptr) {
+  const auto start = std::chrono::steady_clock::now();
+  auto map = fit_parameter_map(obs, ggx_options(model, scene, threads));
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (ms_per_texel) *ms_per_texel = ms / (obs.spec().texels_s * obs.spec().texels_t);
+  return map;
+}
+
 /// vdrig eval's figure for one texel: sqrt(sum |fit - truth|^2 / sum |truth|^2) over 1000 upper-hemisphere directions.
 double dense_relative_rms(const ParameterMap& map, int s, int t, const sim::Scene& scene) {
   static const std::vector<Vec3d> dense = fibonacci_hemisphere(1000);
@@ -121,15 +142,8 @@ TEST(GgxModel, RecoversTheSimulatorsMaterialsUnderSensorNoise) {
     SCOPED_TRACE(c.name);
     const sim::Scene scene = ggx_scene(c.kd, c.f0, c.alpha);
     const ObservationMap obs = recorded_map(scene, S, 1);
-    MapFitOptions options;
-    options.model = parse_model("ggx:iso").value();
-    options.threads = 2;
-    options.model_options.edit<GgxFitOptions>().light = light_of(scene);
-    auto map = fit_parameter_map(obs, options);
+    auto map = fit_ggx(obs, scene, "ggx:iso", 2), phong_map = fit_ggx(obs, scene, "phong:auto", 2);
     ASSERT_TRUE(map) << map.error().describe();
-    MapFitOptions phong = options;
-    phong.model = parse_model("phong:auto").value();
-    auto phong_map = fit_parameter_map(obs, phong);
     ASSERT_TRUE(phong_map) << phong_map.error().describe();
     double albedo = 0, f0 = 0, alpha = 0, ggx_err = 0, phong_err = 0;
     for (int t = 0; t < S; ++t)
@@ -180,19 +194,11 @@ TEST(GgxModel, RecoversTiltedShadingNormalsUnderSensorNoise) {
     scene.materials[0].bump_slope = 0.4;
     scene.materials[0].bump_period_mm = 90.0;
     const ObservationMap obs = recorded_map(scene, S, 1);
-    MapFitOptions options;
-    options.model = parse_model("ggx:iso+n").value();
-    options.threads = 1;
-    options.model_options.edit<GgxFitOptions>().light = light_of(scene);
-    const auto start = std::chrono::steady_clock::now();
-    auto map = fit_parameter_map(obs, options);
-    const double fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    double fit_ms = 0;
+    auto map = fit_ggx(obs, scene, "ggx:iso+n", 1, &fit_ms), flat_map = fit_ggx(obs, scene, "ggx:iso");
     ASSERT_TRUE(map) << map.error().describe();
-    std::printf("%s: ggx:iso+n fit %.2f ms per texel (one thread)\n", c.name, fit_ms / (S * S));
-    MapFitOptions flat = options;
-    flat.model = parse_model("ggx:iso").value();
-    auto flat_map = fit_parameter_map(obs, flat);
     ASSERT_TRUE(flat_map) << flat_map.error().describe();
+    std::printf("%s: ggx:iso+n fit %.2f ms per texel (one thread)\n", c.name, fit_ms);
     const auto& model = dynamic_cast<const GgxModel&>(map->model());
     double normal_err = 0, true_tilt_min = 90, true_tilt_max = 0, f0 = 0, alpha = 0, err = 0, flat_err = 0;
     for (int t = 0; t < S; ++t)
@@ -229,14 +235,8 @@ TEST(GgxModel, ShadingNormalModelOnAFlatSurfaceIsFlat) {
   const sim::Scene scene = ggx_scene(Vec3d(0.3, 0.3, 0.2), Vec3d::Constant(0.04), 0.2);
   const int S = 3;
   const ObservationMap obs = recorded_map(scene, S, 4);
-  MapFitOptions options;
-  options.model = parse_model("ggx:iso+n").value();
-  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
-  auto map = fit_parameter_map(obs, options);
+  auto map = fit_ggx(obs, scene, "ggx:iso+n"), flat_map = fit_ggx(obs, scene, "ggx:iso");
   ASSERT_TRUE(map) << map.error().describe();
-  MapFitOptions flat = options;
-  flat.model = parse_model("ggx:iso").value();
-  auto flat_map = fit_parameter_map(obs, flat);
   ASSERT_TRUE(flat_map) << flat_map.error().describe();
   const auto& model = dynamic_cast<const GgxModel&>(map->model());
   double worst = 0, dense = 0, flat_dense = 0;  // dense: means over the texels
@@ -297,17 +297,9 @@ TEST(GgxModel, RecoversAnisotropicRoughnessUnderSensorNoise) {
     sim::Scene scene = ggx_scene(c.kd, c.f0, c.alpha_x);
     scene.materials[0].roughness_y = c.alpha_y;
     const ObservationMap obs = recorded_map(scene, S, 1);
-    MapFitOptions options;
-    options.model = parse_model("ggx:aniso").value();
-    options.threads = 1;
-    options.model_options.edit<GgxFitOptions>().light = light_of(scene);
-    const auto start = std::chrono::steady_clock::now();
-    auto map = fit_parameter_map(obs, options);
-    const double fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    double fit_ms = 0;
+    auto map = fit_ggx(obs, scene, "ggx:aniso", 1, &fit_ms), iso_map = fit_ggx(obs, scene, "ggx:iso");
     ASSERT_TRUE(map) << map.error().describe();
-    MapFitOptions iso = options;
-    iso.model = parse_model("ggx:iso").value();
-    auto iso_map = fit_parameter_map(obs, iso);
     ASSERT_TRUE(iso_map) << iso_map.error().describe();
     const auto& model = dynamic_cast<const GgxModel&>(map->model());
     const double at = std::max(c.alpha_x, c.alpha_y), ab = std::min(c.alpha_x, c.alpha_y);
@@ -327,12 +319,119 @@ TEST(GgxModel, RecoversAnisotropicRoughnessUnderSensorNoise) {
     std::printf(
         "%s: worst relative error alpha_t/alpha_b %.4f, angle %.3f deg, f0 %.4f; dense mean relative RMS ggx:aniso "
         "%.2f %%, ggx:iso %.2f %%; fit %.2f ms per texel\n",
-        c.name, alpha, angle, f0, 100 * err, 100 * iso_err, fit_ms / (S * S));
+        c.name, alpha, angle, f0, 100 * err, 100 * iso_err, fit_ms);
     EXPECT_LT(alpha, c.alpha_tol);
     EXPECT_LT(angle, c.angle_tol_deg);
     EXPECT_LT(f0, c.f0_tol);
     EXPECT_LT(err, c.dense_tol);
     EXPECT_LT(err, 0.2 * iso_err);
+  }
+}
+
+/// ggx:aniso+n's tangent (ggx_model.hpp): (cos angle, sin angle, 0) projected onto the shading normal's plane.
+Vec3d tilted_tangent(const GgxMaterial& m) {
+  const Vec3d d(std::cos(m.angle), std::sin(m.angle), 0.0);
+  return (d - m.normal * m.normal.dot(d)).normalized();
+}
+
+TEST(GgxModel, AnisotropicWithNormalIsTheSimulatorsBrdf) {
+  // ggx:aniso+n's BRDF is the simulator's anisotropic one in the frame (tangent, n x tangent, n) of its shading
+  // normal; at angle 0 that is the simulator's own frame for a bumped surface (sim::ggx_local_frame).
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto hemisphere = [&] { return direction_from_spherical(2 * kPi * u(rng), deg_to_rad(88.0) * std::sqrt(u(rng))); };
+  double worst = 0;
+  int compared = 0;
+  for (int k = 0; k < 2000; ++k) {
+    GgxMaterial m{Vec3d(u(rng), u(rng), u(rng)), Vec3d(u(rng), u(rng), u(rng)), 0.3 + 0.7 * u(rng)};
+    m.roughness_b = 0.05 + 0.25 * u(rng);
+    m.angle = k % 2 ? 0.0 : kPi * u(rng);
+    m.normal = direction_from_spherical(2 * kPi * u(rng), deg_to_rad(30.0) * u(rng));
+    const Vec3d l = hemisphere(), v = hemisphere();
+    Mat3d frame = sim::ggx_local_frame(m.normal);
+    if (m.angle != 0.0) {
+      frame.row(0) = tilted_tangent(m).transpose();
+      frame.row(1) = m.normal.cross(tilted_tangent(m)).transpose();
+    }
+    const Vec3d got = GgxModel::brdf(m, l, v);
+    if (l.dot(m.normal) <= 0.0 || v.dot(m.normal) <= 0.0) {
+      EXPECT_EQ(got, Vec3d::Zero());
+      continue;
+    }
+    const double at = m.roughness * m.roughness, ab = m.roughness_b * m.roughness_b;
+    const Vec3d expected = m.albedo / kPi + sim::ggx_brdf(frame * l, frame * v, at, ab, m.f0);
+    worst = std::max(worst, ((got - expected).array().abs() / expected.array()).maxCoeff());
+    ++compared;
+  }
+  EXPECT_GT(compared, 1500);
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(GgxModel, RecoversBumpedAnisotropicMaterialsUnderSensorNoise) {
+  // The simulator's bump pattern on its anisotropic GGX (roughness along the x axis projected onto each texel's
+  // normal and across it), recorded as above: ggx:aniso+n recovers the normal, the two roughnesses and the rougher
+  // direction where ggx:aniso (flat) and ggx:iso+n (isotropic) each miss one of them. Measured (seed 1; true tilts
+  // up to 14.9 deg): metal: worst normal error 0.069 deg, alpha 0.57 %, direction 0.16 deg, f0 1.1 %, dense 0.71 %
+  // (ggx:aniso 62.7 %, ggx:iso+n 42.8 %); plastic: 0.125 deg, 1.27 %, 0.20 deg, 3.1 %, 0.28 % (17.1 %, 14.0 %);
+  // ~20 ms per texel.
+  struct Case {
+    const char* name;
+    Vec3d kd, f0;
+    double alpha_x, alpha_y, normal_tol_deg, alpha_tol, angle_tol_deg, f0_tol, dense_tol;
+  };
+  const Case cases[] = {
+      {"bumped metal alpha 0.12 x 0.30", Vec3d::Constant(0.05), Vec3d(0.9, 0.7, 0.4), 0.12, 0.30, 0.1, 0.0085, 0.24,
+       0.017, 0.011},
+      {"bumped plastic alpha 0.30 x 0.12", Vec3d(0.6, 0.25, 0.1), Vec3d::Constant(0.04), 0.30, 0.12, 0.19, 0.019, 0.3,
+       0.046, 0.0042},
+  };
+  const int S = 4;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    sim::Scene scene = ggx_scene(c.kd, c.f0, c.alpha_x);
+    scene.materials[0].roughness_y = c.alpha_y;
+    scene.materials[0].bump_slope = 0.4;
+    scene.materials[0].bump_period_mm = 90.0;
+    const ObservationMap obs = recorded_map(scene, S, 1);
+    double fit_ms = 0;
+    auto map = fit_ggx(obs, scene, "ggx:aniso+n", 1, &fit_ms), flat_map = fit_ggx(obs, scene, "ggx:aniso"),
+         iso_map = fit_ggx(obs, scene, "ggx:iso+n");
+    ASSERT_TRUE(map) << map.error().describe();
+    ASSERT_TRUE(flat_map) << flat_map.error().describe();
+    ASSERT_TRUE(iso_map) << iso_map.error().describe();
+    const auto& model = dynamic_cast<const GgxModel&>(map->model());
+    const double at = std::max(c.alpha_x, c.alpha_y), ab = std::min(c.alpha_x, c.alpha_y);
+    double normal_err = 0, tilt_max = 0, alpha = 0, angle = 0, f0 = 0, err = 0, flat_err = 0, iso_err = 0;
+    for (int t = 0; t < S; ++t)
+      for (int s = 0; s < S; ++s) {
+        const Vec3d p = texel_centre_mm(s, t, S, S, scene.width_mm, scene.height_mm);
+        const Vec3d truth = scene.surface_at(p.x(), p.y()).normal;
+        const Mat3d frame = sim::ggx_local_frame(truth);
+        const Vec3d rougher = c.alpha_x > c.alpha_y ? Vec3d(frame.row(0).transpose()) : Vec3d(frame.row(1).transpose());
+        const GgxMaterial m = model.texel_material(map->parameters(s, t));
+        EXPECT_EQ(model.check_parameters(map->parameters(s, t)), "");
+        normal_err = std::max(normal_err, angle_deg(m.normal, truth));
+        tilt_max = std::max(tilt_max, angle_deg(truth, Vec3d::UnitZ()));
+        alpha = std::max(
+            {alpha, std::abs(m.roughness * m.roughness - at) / at, std::abs(m.roughness_b * m.roughness_b - ab) / ab});
+        angle = std::max(angle, 90.0 - std::abs(90.0 - angle_deg(tilted_tangent(m), rougher)));
+        for (int ch = 0; ch < 3; ++ch) f0 = std::max(f0, std::abs(m.f0[ch] - c.f0[ch]) / c.f0[ch]);
+        err += dense_relative_rms(*map, s, t, scene) / (S * S);
+        flat_err += dense_relative_rms(*flat_map, s, t, scene) / (S * S);
+        iso_err += dense_relative_rms(*iso_map, s, t, scene) / (S * S);
+      }
+    std::printf(
+        "%s: true tilt up to %.1f deg; worst normal error %.3f deg, alpha_t/alpha_b %.4f, direction %.3f deg, f0 "
+        "%.4f; dense mean relative RMS ggx:aniso+n %.2f %%, ggx:aniso %.2f %%, ggx:iso+n %.2f %%; fit %.2f ms per "
+        "texel\n",
+        c.name, tilt_max, normal_err, alpha, angle, f0, 100 * err, 100 * flat_err, 100 * iso_err, fit_ms);
+    EXPECT_GT(tilt_max, 12.0);
+    EXPECT_LT(normal_err, c.normal_tol_deg);
+    EXPECT_LT(alpha, c.alpha_tol);
+    EXPECT_LT(angle, c.angle_tol_deg);
+    EXPECT_LT(f0, c.f0_tol);
+    EXPECT_LT(err, c.dense_tol);
+    EXPECT_LT(err, 0.2 * std::min(flat_err, iso_err));
   }
 }
 
@@ -357,10 +456,7 @@ TEST(GgxModel, SparseViewsGetNoHighlightBetweenThem) {
       for (size_t v = 0; v < texel.size(); ++v)
         obs.set(s, t, static_cast<int>(v), texel.radiance[v], texel.direction[v], kObsValid);
     }
-  MapFitOptions options;
-  options.model = parse_model("ggx:iso").value();
-  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
-  auto map = fit_parameter_map(obs, options);
+  auto map = fit_ggx(obs, scene, "ggx:iso");
   ASSERT_TRUE(map) << map.error().describe();
   double worst = 0, brightest = 0;
   static const std::vector<Vec3d> dense = fibonacci_hemisphere(1000);
@@ -377,7 +473,7 @@ TEST(GgxModel, SparseViewsGetNoHighlightBetweenThem) {
   EXPECT_LT(brightest, 0.6);
 }
 
-TEST(GgxModel, FitNeedsTheSessionLightAndRefusesTiledFits) {
+TEST(GgxModel, FitNeedsTheSessionLight) {
   const sim::Scene scene = ggx_scene(Vec3d::Constant(0.3), Vec3d::Constant(0.04), 0.2);
   const ObservationMap obs = recorded_map(scene, 2, 2);
   MapFitOptions options;
@@ -393,9 +489,62 @@ TEST(GgxModel, FitNeedsTheSessionLightAndRefusesTiledFits) {
   MapFitOptions other = options;
   other.model_options.edit<GgxFitOptions>().light = light_of(scene);
   EXPECT_NE(options.model->options_fingerprint(options), options.model->options_fingerprint(other));
-  auto tiled = options.model->tiled_fit(other, obs.spec());
+  // The tiled fit checks the options as the fit does.
+  auto tiled = options.model->tiled_fit(options, obs.spec());
   ASSERT_FALSE(tiled);
-  EXPECT_EQ(tiled.error().code, ErrorCode::kUnsupported);
+  EXPECT_EQ(tiled.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_TRUE(options.model->tiled_fit(other, obs.spec()));
+}
+
+TEST(GgxModel, TiledFitEqualsTheSingleProcessFit) {
+  // Tiles fitted in a shuffled order, records passed as bytes (as the MPI driver does): the map fit_parameter_map
+  // gives, bit for bit, each texel under the light at its place on the whole map (a tile fitted as if it were the
+  // whole map would put its texels elsewhere: other light directions, other materials).
+  const sim::Scene scene = ggx_scene(Vec3d(0.3, 0.3, 0.2), Vec3d::Constant(0.04), 0.2);
+  const int S = 5;
+  test::TempDir dir("ggx_tiled_fit");
+  ObsFileOptions file;
+  file.tile_size = 2;  // 3 x 3 tiles, the edge ones 1 texel wide
+  ASSERT_TRUE(write_obsmap_file(recorded_map(scene, S, 5), dir / "obs.vdobs", file));
+  auto reader = ObsMapReader::open(dir / "obs.vdobs");
+  ASSERT_TRUE(reader) << reader.error().describe();
+  for (const char* model : {"ggx:iso", "ggx:aniso+n"}) {
+    SCOPED_TRACE(model);
+    MapFitOptions options = ggx_options(model, scene, 2);
+    options.held_out = {7};
+    auto reference = fit_parameter_map(*reader, options);
+    ASSERT_TRUE(reference) << reference.error().describe();
+    options.threads = 1;
+    auto tiled = TiledMapFit::create(*reader, options);
+    ASSERT_TRUE(tiled) << tiled.error().describe();
+    ASSERT_EQ(tiled->passes(), 1);
+    ASSERT_EQ(tiled->tiles(), 9);
+    std::vector<TileBytes> records(static_cast<size_t>(tiled->tiles()));
+    for (int k : {4, 0, 8, 2, 6, 1, 7, 3, 5}) {
+      auto record = tiled->fit_tile(0, k, nullptr);
+      ASSERT_TRUE(record) << record.error().describe();
+      records[static_cast<size_t>(k)] = std::move(record.value());
+    }
+    auto map = tiled->assemble([&](int k) -> Result<TileBytes> { return records[static_cast<size_t>(k)]; });
+    ASSERT_TRUE(map) << map.error().describe();
+    const ExrImage &a = reference->image(), &b = map->image();
+    ASSERT_EQ(a.channel_names, b.channel_names);
+    for (size_t c = 0; c < a.channels.size(); ++c)
+      for (int y = 0; y < S; ++y)
+        EXPECT_EQ(std::memcmp(a.channels[c].ptr<float>(y), b.channels[c].ptr<float>(y), sizeof(float) * S), 0)
+            << a.channel_names[c] << " row " << y;
+    EXPECT_EQ(a.string_attributes, b.string_attributes);
+    // Each texel's light is the one at its own place.
+    const int lc = static_cast<int>(std::find(a.channel_names.begin(), a.channel_names.end(), "light.x") -
+                                    a.channel_names.begin());
+    for (int t = 0; t < S; ++t)
+      for (int s = 0; s < S; ++s) {
+        const Vec3d p = texel_centre_mm(s, t, S, S, scene.width_mm, scene.height_mm);
+        const std::vector<double> params = map->parameters(s, t);
+        const Vec3d to_light = (scene.lights[0].position_mm - p).normalized();
+        EXPECT_LT((Vec3d(params[lc], params[lc + 1], params[lc + 2]) - to_light).norm(), 1e-6) << s << " " << t;
+      }
+  }
 }
 
 TEST(GgxModel, StoresTheLightPerTexelAndRendersTheSession) {
@@ -403,10 +552,8 @@ TEST(GgxModel, StoresTheLightPerTexelAndRendersTheSession) {
   const sim::Scene scene = ggx_scene(Vec3d(0.3, 0.3, 0.2), Vec3d::Constant(0.04), 0.2);
   const int S = 3;
   const ObservationMap obs = recorded_map(scene, S, 3);
-  MapFitOptions options;
-  options.model = parse_model("ggx:iso").value();
+  MapFitOptions options = ggx_options("ggx:iso", scene);
   options.held_out = {5, 40};
-  options.model_options.edit<GgxFitOptions>().light = light_of(scene);
   auto map = fit_parameter_map(obs, options);
   ASSERT_TRUE(map) << map.error().describe();
   EXPECT_EQ(map->image().string_attributes.at("vdrig.session_light"), light_of(scene).describe());

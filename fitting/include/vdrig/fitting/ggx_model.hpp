@@ -1,5 +1,5 @@
 // The GGX microfacet BRDF models ("ggx:iso", "ggx:iso+n" with a per-texel shading normal, "ggx:aniso" with two
-// roughnesses and the direction of the rougher one): per texel a Lambertian
+// roughnesses and the direction of the rougher one, "ggx:aniso+n" with both): per texel a Lambertian
 // albedo, a Fresnel reflectance at normal incidence and a roughness, fitted under the session's light. Unlike the
 // view-only models (Phong lobes, SH, HSH, PTM: the radiance toward v under the session's fixed lighting), its
 // parameters are a material: GgxModel::brdf gives its reflectance for any light and view, which is what an exported
@@ -24,10 +24,12 @@
 // its x and y components in the surface frame, z = sqrt(1 - x^2 - y^2)), for ggx:aniso roughness.b and aniso.angle
 // (roughness is then the one along the tangent t = (cos angle, sin angle, 0), roughness.b <= roughness the one along
 // b = (-sin angle, cos angle, 0), angle in [0, pi) radians from the surface's x axis toward y; D and Lambda are
-// sim/ggx.hpp's anisotropic forms with alpha_t = roughness^2, alpha_b = roughness.b^2), then light.x/y/z (the unit
-// direction toward the session's light at the texel, surface frame) and E.R/G/B (its irradiance there, as above): the
-// fit stores the light per texel so that evaluate() (the radiance under the session's light, as for every model) and
-// the viewer render the map as the session saw it. A texel fitted from too few observations is all zeros (black).
+// sim/ggx.hpp's anisotropic forms with alpha_t = roughness^2, alpha_b = roughness.b^2; ggx:aniso+n has both, aniso's
+// two channels then the normal's, its t (cos angle, sin angle, 0) projected onto the normal's plane, b = n x t), then
+// light.x/y/z (the unit direction toward the session's light at the texel, surface frame) and E.R/G/B (its
+// irradiance there, as above): the fit stores the light per texel so that evaluate() (the radiance under the
+// session's light, as for every model) and the viewer render the map as the session saw it. A texel fitted from too
+// few observations is all zeros (black).
 #pragma once
 
 #include <optional>
@@ -66,8 +68,8 @@ struct GgxMaterial {
   Vec3d f0 = Vec3d::Zero();
   double roughness = 0.0;         // glTF's perceptual roughness; alpha = roughness^2
   Vec3d normal = Vec3d::UnitZ();  // the shading normal (unit, surface frame): +z unless ggx:iso+n
-  double roughness_b = 0.0;       // ggx:aniso: the roughness along the bitangent; 0 = isotropic (= roughness)
-  double angle = 0.0;             // ggx:aniso: the tangent's angle from the surface's x axis toward y, radians
+  double roughness_b = 0.0;       // ggx:aniso(+n): the roughness along the bitangent; 0 = isotropic (= roughness)
+  double angle = 0.0;             // ggx:aniso(+n): the tangent's angle from the surface's x axis toward y, radians
 };
 
 class GgxModel : public ReflectanceModel {
@@ -76,14 +78,16 @@ class GgxModel : public ReflectanceModel {
   static constexpr double kMinRoughness = 0.03;  // the fit's lower bound (alpha 9e-4); evaluation clamps to it too
   static constexpr double kMaxTilt = 0.95;       // ggx:iso+n: normal.x^2 + normal.y^2 at most (tilt <= 77 deg)
 
-  enum class Form { kIso, kIsoNormal, kAniso };
-  explicit GgxModel(Form form = Form::kIso) : shading_normal_(form == Form::kIsoNormal), aniso_(form == Form::kAniso) {}
-  /// ggx:iso+n: the two normal.x/y channels follow the material's seven.
+  enum class Form { kIso, kIsoNormal, kAniso, kAnisoNormal };
+  explicit GgxModel(Form form = Form::kIso)
+      : shading_normal_(form == Form::kIsoNormal || form == Form::kAnisoNormal),
+        aniso_(form == Form::kAniso || form == Form::kAnisoNormal) {}
+  /// ggx:iso+n, ggx:aniso+n: the two normal.x/y channels follow the material's seven (and aniso's two).
   bool has_shading_normal() const { return shading_normal_; }
-  /// ggx:aniso: roughness.b and aniso.angle follow the material's seven.
+  /// ggx:aniso, ggx:aniso+n: roughness.b and aniso.angle follow the material's seven.
   bool is_anisotropic() const { return aniso_; }
   std::string family() const override { return "ggx"; }
-  std::string name() const override { return shading_normal_ ? "ggx:iso+n" : aniso_ ? "ggx:aniso" : "ggx:iso"; }
+  std::string name() const override;
   std::vector<std::string> channels() const override;
   Vec3d evaluate(std::span<const double> parameters, const Vec3d& v) const override;
   std::string check_parameters(std::span<const double> parameters) const override;
@@ -95,26 +99,28 @@ class GgxModel : public ReflectanceModel {
   Status check_options(const MapFitOptions& options) const override;
   std::string options_fingerprint(const MapFitOptions& options) const override;
   Result<ParameterMap> fit_map(const MapFitContext& context) const override;
-  /// Refused: the fit depends on the texel's position on the sample (the light's direction), which the per-texel tile
-  /// jobs do not keep.
+  /// The per-texel tiled fit, each tile's texels placed on the whole map (the light's direction depends on it).
   Result<std::unique_ptr<ModelTiledFit>> tiled_fit(const MapFitOptions& options,
                                                    const ObservationMapSpec& spec) const override;
 
   /// A texel's material from its parameters (ggx:iso's; normal +z).
   static GgxMaterial material(std::span<const double> parameters);
-  /// A texel's material from this model's parameters (the shading normal too for ggx:iso+n).
+  /// A texel's material from this model's parameters (the shading normal, the second roughness and angle too).
   GgxMaterial texel_material(std::span<const double> parameters) const;
   /// The BRDF f(l, v) (1/sr, per RGB channel) of a material for unit l and v (surface frame; zero below the shading
   /// normal's horizon), as above.
   static Vec3d brdf(const GgxMaterial& material, const Vec3d& l, const Vec3d& v);
 
  private:
-  int light_channel() const { return kMaterialParameters + (shading_normal_ || aniso_ ? 2 : 0); }
+  int normal_channel() const { return kMaterialParameters + (aniso_ ? 2 : 0); }
+  int light_channel() const { return normal_channel() + (shading_normal_ ? 2 : 0); }
   int parameter_count() const { return light_channel() + 6; }
+  /// fit_map for the texels of `context.spec`, texel (0, 0) being texel (s0, t0) of a map of spec `whole`.
+  Result<ParameterMap> fit_region(const MapFitContext& context, int s0, int t0, const ObservationMapSpec& whole) const;
   bool shading_normal_ = false, aniso_ = false;
 };
 
-/// Registers the "ggx" family (ggx:iso, ggx:iso+n).
+/// Registers the "ggx" family (ggx:iso, ggx:iso+n, ggx:aniso, ggx:aniso+n).
 void register_ggx_model(ModelRegistry& registry);
 
 }  // namespace vdrig::fitting

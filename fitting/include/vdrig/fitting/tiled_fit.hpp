@@ -104,5 +104,11 @@ std::string fit_options_fingerprint(const MapFitOptions& options);
 /// Options the model's fit_map refuses are kInvalidArgument here.
 Result<std::unique_ptr<ModelTiledFit>> per_texel_tiled_fit(ModelPtr model, const MapFitOptions& options,
                                                            const ObservationMapSpec& spec);
+/// The same for a model whose texel fit depends on the texel's place on the map (ggx: the light's direction there):
+/// each tile is fitted by fit_rect(context of the tile's size, the tile, the whole map's spec) instead of fit_map.
+using RectFit = std::function<Result<ParameterMap>(const MapFitContext& tile_context, const TileRect& rect,
+                                                   const ObservationMapSpec& whole)>;
+Result<std::unique_ptr<ModelTiledFit>> per_texel_tiled_fit(ModelPtr model, const MapFitOptions& options,
+                                                           const ObservationMapSpec& spec, RectFit fit_rect);
 
 }  // namespace vdrig::fitting
