@@ -35,7 +35,8 @@ Status run_export(const ExportArgs& a) {
 const CommandRegistrar kExport([](CLI::App& root) {
   auto args = std::make_shared<ExportArgs>();
   auto* cmd = root.add_subcommand("export", "Export a fitted BRDF map (ggx) as a glTF 2.0 material with PNG textures");
-  cmd->add_option("map", args->map, "parameter map (EXR, vdrig fit --model ggx:iso or ggx:iso+n)")
+  cmd->add_option("map", args->map,
+                  "parameter map (EXR, vdrig fit --model ggx:iso, ggx:iso+n, ggx:aniso or ggx:aniso+n)")
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--format", args->format,

@@ -253,6 +253,42 @@ TEST(GltfExport, AnisotropyAsKhrMaterialsAnisotropy) {
   EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // buffer, base colour, metallic-roughness, anisotropy
 }
 
+TEST(GltfExport, AnisotropyWithNormalCarriesBoth) {
+  // ggx:aniso+n: normalTexture and KHR_materials_anisotropy together on one material (the anisotropy direction in
+  // the same tangent space as the normal map's), and the validator accepts the pair.
+  test::TempDir dir("gltf_export_aniso_normal");
+  fitting::ParameterMap map(fitting::parse_model("ggx:aniso+n").value(), 2, 1, 200.0, 100.0);
+  const double angles[] = {deg_to_rad(30.0), deg_to_rad(120.0)}, nx[] = {0.2, -0.1};
+  for (int s = 0; s < 2; ++s)
+    map.set_parameters(
+        s, 0, std::vector<double>{0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.6, 0.3, angles[s], nx[s], 0.1, 0, 0, 1, 1, 1, 1});
+  auto written = export_gltf(map, dir, "bumped_brushed");
+  ASSERT_TRUE(written) << written.error().describe();
+  const nlohmann::json gltf = read_json(written->gltf);
+  EXPECT_EQ(gltf["extensionsUsed"][0], "KHR_materials_anisotropy");
+  const nlohmann::json& material = gltf["materials"][0];
+  ASSERT_TRUE(material.contains("normalTexture"));
+  ASSERT_TRUE(material["extensions"]["KHR_materials_anisotropy"].contains("anisotropyTexture"));
+  auto image_of = [&](int texture) {
+    const int source = gltf["textures"][texture]["source"];
+    return read_png(dir / gltf["images"][source]["uri"].get<std::string>()).value();
+  };
+  const cv::Mat normal = image_of(material["normalTexture"]["index"]);
+  const cv::Mat an = image_of(material["extensions"]["KHR_materials_anisotropy"]["anisotropyTexture"]["index"]);
+  const cv::Mat mr = image_of(material["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"]);
+  for (int s = 0; s < 2; ++s) {
+    EXPECT_NEAR(normal.at<cv::Vec3b>(0, s)[2] / 255.0, 0.5 + 0.5 * nx[s], 0.003) << s;  // red: the normal's x
+    EXPECT_NEAR(an.at<cv::Vec3b>(0, s)[2] / 255.0, 0.5 + 0.5 * std::cos(angles[s]), 0.003) << s;
+    EXPECT_NEAR(mr.at<cv::Vec3b>(0, s)[1] / 255.0, 0.3, 0.003) << s;  // roughness.b, glTF's alpha_b
+  }
+  bool skipped = false;
+  const nlohmann::json report = validate(written->gltf, &skipped);
+  if (skipped) GTEST_SKIP() << "the glTF-Validator is not installed (scripts/setup: npm ci in tests/gltf)";
+  EXPECT_EQ(report["errors"], 0) << report.dump(1);
+  EXPECT_EQ(report["warnings"], 0) << report.dump(1);
+  EXPECT_EQ(report["resources"].size(), 5u) << report.dump(1);  // buffer, base colour, metallic-roughness, both maps
+}
+
 TEST(GltfExport, OneSelfContainedGlb) {
   // `--format glb`: the same material in one binary glTF file (header, JSON chunk, BIN chunk with the quad and the
   // PNGs), whose textures decode to the separate export's.

@@ -9,10 +9,10 @@
 //  - <name>_specular.png (only when some texel's F0 is not 0.04 within kF0Tolerance): KHR_materials_specular's
 //    specularColorTexture, sRGB-encoded F0 / max F0, with specularColorFactor max F0 / 0.04, so that glTF's dielectric
 //    F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1: F90 = 1 as in Schlick's form);
-//  - <name>_normal.png (ggx:iso+n only): normalTexture, linear 8 bit, the shading normal in tangent space as glTF
+//  - <name>_normal.png (ggx:iso+n, aniso+n): normalTexture, linear 8 bit, the shading normal in tangent space as glTF
 //    encodes it (0.5 + 0.5 n): red along the surface's +x, green along its -y (glTF's green points up the image,
 //    toward smaller v), blue the geometric normal; the quad then carries an explicit TANGENT (+x, w = -1);
-//  - <name>_anisotropy.png (ggx:aniso only): KHR_materials_anisotropy's anisotropyTexture, linear 8 bit: RG the
+//  - <name>_anisotropy.png (ggx:aniso, aniso+n): KHR_materials_anisotropy's anisotropyTexture, linear 8 bit: RG the
 //    rougher direction in the same tangent space (0.5 + 0.5 (cos angle, -sin angle)), B the strength with
 //    alpha_t = mix(alpha_b, 1, strength^2); the metallic-roughness texture then holds roughness.b (glTF's alpha_b).
 // GltfContainer::kBinary (`--format glb`) writes the same as one DIR/<name>.glb: the JSON chunk, then one BIN chunk
