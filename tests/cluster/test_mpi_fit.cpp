@@ -142,6 +142,14 @@ TEST_F(MpiFit, PhongAutoWithSharedLightsIsBitIdenticalOnOneTwoThreeRanks) {
 
 TEST_F(MpiFit, HshIsBitIdenticalOnOneTwoThreeRanks) { check_ranks_agree("--model hsh:2 --holdout 1"); }
 
+TEST_F(MpiFit, GgxIsBitIdenticalOnOneTwoThreeRanks) {
+  // A BRDF fit depends on each texel's place under the light: every tile's texels are fitted where they lie.
+  check_ranks_agree("--model ggx:iso --light 0.1,-0.2,1.5 --holdout 1");
+  auto map = read_exr(dir_ / "mpi_3.exr");
+  ASSERT_TRUE(map);
+  EXPECT_EQ(map->string_attributes["vdrig.session_light"].rfind("point 0.1 -0.2 1.5", 0), 0u) << last_fit_output_;
+}
+
 TEST_F(MpiFit, ObsmapBuildOnTwoRanksIsByteIdentical) {
   const fs::path out = dir_ / "mpi.vdobs";
   const ProcessRun r =
