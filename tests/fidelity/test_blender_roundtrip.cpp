@@ -261,11 +261,12 @@ TEST(BlenderRoundTrip, ReimportedExportMatchesTheOriginalRenders) {
     const RoundTrip r = compare(cam, geometry->poses[static_cast<size_t>(held_out[k])], map.value(), images);
     const Vec3d eye = geometry->poses[static_cast<size_t>(held_out[k])].camera_centre().normalized();
     std::printf(
-        "held-out view %d (zenith %.0f deg): region |difference| in codes, worst / mean over %d regions: Blender's "
+        "held-out view %d (zenith %.0f deg, azimuth %.0f deg): region |difference| in codes, worst / mean over %d "
+        "regions: Blender's "
         "import vs original %.2f / %.2f, vdrig's fit vs original %.2f / %.2f, import vs fit %.2f / %.2f, control "
         "(roughness squared) vs original %.2f / %.2f\n",
-        held_out[k], rad_to_deg(std::acos(eye.z())), r.regions, r.gltf.worst, r.gltf.mean, r.fit.worst, r.fit.mean,
-        r.gltf_fit.worst, r.gltf_fit.mean, r.control.worst, r.control.mean);
+        held_out[k], rad_to_deg(std::acos(eye.z())), rad_to_deg(std::atan2(eye.y(), eye.x())), r.regions, r.gltf.worst,
+        r.gltf.mean, r.fit.worst, r.fit.mean, r.gltf_fit.worst, r.gltf_fit.mean, r.control.worst, r.control.mean);
     std::printf("  specular conversion corrected vs original %.2f / %.2f\n", r.corrected.worst, r.corrected.mean);
     std::printf("  over the sample, / original: import %.4f %.4f %.4f, fit %.4f %.4f %.4f, corrected %.4f %.4f %.4f\n",
                 r.gltf_ratio.x(), r.gltf_ratio.y(), r.gltf_ratio.z(), r.fit_ratio.x(), r.fit_ratio.y(), r.fit_ratio.z(),
