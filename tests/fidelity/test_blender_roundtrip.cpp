@@ -67,7 +67,6 @@ std::vector<float> read_f32(const fs::path& file, size_t count) {
 RoundTrip compare(const CameraModel& cam, const ViewPose& pose, const fitting::ParameterMap& map,
                   const std::array<std::vector<float>, 4>& images) {
   RoundTrip out;
-  const Mat3d rt = pose.R.transpose();
   const Vec3d centre_mm = pose.camera_centre();
   constexpr int kCells = kRegions * kRegions;
   enum { kOriginal, kGltf, kControl, kCorrected, kFit, kKinds };
@@ -82,7 +81,8 @@ RoundTrip compare(const CameraModel& cam, const ViewPose& pose, const fitting::P
   const double margin_m = 0.04;
   for (int row = 0; row < cam.height; ++row)  // row 0: the image's top (OpenCV); Blender's buffer is bottom first
     for (int col = 0; col < cam.width; ++col) {
-      const Vec3d ray = rt * Vec3d((col - cam.cx) / cam.fx, (row - cam.cy) / cam.fy, 1.0);
+      // R^T: the camera axes in the surface frame (no Mat3d copy of it: GCC 12 -Wmaybe-uninitialized in Eigen).
+      const Vec3d ray = pose.R.transpose() * Vec3d((col - cam.cx) / cam.fx, (row - cam.cy) / cam.fy, 1.0);
       if (ray.z() >= 0) continue;
       const Vec3d hit_mm = centre_mm + ray * (-centre_mm.z() / ray.z());
       if (std::abs(hit_mm.x()) > 1000 * (kSampleHalfM - margin_m) ||
@@ -94,6 +94,7 @@ RoundTrip compare(const CameraModel& cam, const ViewPose& pose, const fitting::P
           std::clamp(static_cast<int>((hit_mm.y() / map.height_mm() + 0.5) * map.texels_t()), 0, map.texels_t() - 1);
       const size_t at = 4 * (static_cast<size_t>(cam.height - 1 - row) * cam.width + static_cast<size_t>(col));
       std::array<Vec3d, kKinds> v;
+      v.fill(Vec3d::Zero());
       for (int k = 0; k < kFit; ++k)
         v[k] =
             k == kCorrected && !corrected ? Vec3d::Zero() : Vec3d(images[k][at], images[k][at + 1], images[k][at + 2]);
@@ -224,11 +225,10 @@ TEST(BlenderRoundTrip, ReimportedExportMatchesTheOriginalRenders) {
   ASSERT_EQ(held_out.size(), 3u);
   for (int index : held_out) {
     const ViewPose& pose = geometry->poses[static_cast<size_t>(index)];
-    const Mat3d rt = pose.R.transpose();
     const Vec3d centre_m = pose.camera_centre() / 1000.0;
     Json m = Json::array();
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m.push_back(rt(r, c));
+      for (int c = 0; c < 3; ++c) m.push_back(pose.R(c, r));  // R^T, the camera axes as columns
       m.push_back(centre_m[r]);
     }
     for (double v : {0.0, 0.0, 0.0, 1.0}) m.push_back(v);
