@@ -60,6 +60,10 @@ MATERIALS = {
     "fabric_sheen": dict(base=(0.45, 0.08, 0.25, 1), Roughness=0.9, Sheen=1.0, Sheen_Tint=0.5, Specular=0.2),
     "textured_clearcoat_plastic": dict(texture=("noise", (0.7, 0.45, 0.1, 1), (0.1, 0.3, 0.6, 1), 8.0),
                                        Roughness=0.4, Clearcoat=1.0, Clearcoat_Roughness=0.05),
+    # The glTF round trip's sample (tests/fidelity/test_blender_roundtrip.cpp): what ggx:iso+n can hold, a textured
+    # dielectric with a shading normal from a bump map (UV noise of scale 4 as the height, Bump distance 0.04 m).
+    "bumped_textured_plastic": dict(texture=("noise", (0.7, 0.45, 0.1, 1), (0.1, 0.3, 0.6, 1), 8.0),
+                                    bump=(4.0, 0.04), Roughness=0.4, Specular=0.5),
 }
 
 
@@ -95,6 +99,18 @@ def make(name, spec, path):
         tangent = tree.nodes.new("ShaderNodeTangent")
         tangent.direction_type = "UV_MAP"
         tree.links.new(tangent.outputs["Tangent"], bsdf.inputs["Tangent"])
+    if "bump" in spec:
+        # A bump map: Cycles' shading normal from the height's screen-space derivatives (Bump node).
+        scale, distance = spec.pop("bump")
+        coords = tree.nodes.new("ShaderNodeTexCoord")
+        height = tree.nodes.new("ShaderNodeTexNoise")
+        height.inputs["Scale"].default_value = scale
+        height.inputs["Detail"].default_value = 0.0
+        bump = tree.nodes.new("ShaderNodeBump")
+        bump.inputs["Distance"].default_value = distance
+        tree.links.new(coords.outputs["UV"], height.inputs["Vector"])
+        tree.links.new(height.outputs["Fac"], bump.inputs["Height"])
+        tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
     set_inputs(bsdf, **spec)
     paper = bpy.data.materials.new("board")
     paper.use_nodes = True

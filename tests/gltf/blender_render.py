@@ -4,7 +4,8 @@
 #   blender --background --factory-startup --python blender_render.py -- JOB.json
 # JOB: {"gltf": path, "width": W, "height": H, "samples": n, "out_dir": path,
 #       "light": {"position": [x, y, z], "power_w": p, "colour": [r, g, b]},
-#       "views": [{"camera_to_world": [16 numbers, row major], "fov_y_deg": f, "flip_green": false}, ...]}
+#       "views": [{"camera_to_world": [16 numbers, row major], "fov_y_deg": f, "flip_green": false,
+#                  "fresnel_free": false}, ...]}
 # in Blender's frame (Z up, metres; the importer maps glTF's Y up to it). The light is a Cycles point light of radius
 # 0. Each view is rendered (no denoising, box filter one pixel wide, Standard view transform, transparent film) and
 # written as raw float32 RGBA, bottom row first, to out_dir/view_K.f32. Prints one JSON line of facts on stdout;
@@ -52,6 +53,32 @@ def negate_green(material, on):
     tree.links.new(sep.outputs[2], comb.inputs[2])
     tree.links.new(comb.outputs[0], normal.inputs["Color"])
     return True
+
+
+def fresnel_free(material, on):
+    """The experiment of docs/results.md section 9: the Principled BSDF's output replaced by a Lambertian Diffuse BSDF
+    of the base colour plus a GGX Glossy BSDF of constant colour 0.04 (glTF's dielectric F0, no Fresnel), same
+    roughness and normal: Principled v1's Fresnel taken out."""
+    tree = material.node_tree
+    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    principled = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    add = tree.nodes.get("vdrig_fresnel_free")
+    if add is None:
+        add = tree.nodes.new("ShaderNodeAddShader")
+        add.name = "vdrig_fresnel_free"
+        diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Roughness"].default_value = 0.0
+        glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+        glossy.distribution = "GGX"
+        glossy.inputs["Color"].default_value = (0.04, 0.04, 0.04, 1.0)
+        for socket, targets in (("Base Color", [diffuse.inputs["Color"]]), ("Roughness", [glossy.inputs["Roughness"]]),
+                                ("Normal", [diffuse.inputs["Normal"], glossy.inputs["Normal"]])):
+            if principled.inputs[socket].links:
+                for target in targets:
+                    tree.links.new(principled.inputs[socket].links[0].from_socket, target)
+        tree.links.new(diffuse.outputs[0], add.inputs[0])
+        tree.links.new(glossy.outputs[0], add.inputs[1])
+    tree.links.new((add if on else principled).outputs[0], out.inputs["Surface"])
 
 
 def main():
@@ -125,6 +152,7 @@ def main():
         cam.matrix_world = Matrix([m[0:4], m[4:8], m[8:12], m[12:16]])
         cam_data.angle = math.radians(v["fov_y_deg"])
         negate_green(material, bool(v.get("flip_green", False)))
+        fresnel_free(material, bool(v.get("fresnel_free", False)))
         exr = os.path.join(job["out_dir"], "view_%d.exr" % k)
         scene.render.filepath = exr
         bpy.ops.render.render(write_still=True)
