@@ -261,11 +261,13 @@ bool model_reads_light(const fitting::MapFitOptions& options) {
 
 /// The light of a BRDF fit, in priority order: --light X,Y,Z[,I] or --light-scene (set by fit_options_for), --light
 /// estimate (from the observations), the session's recorded lamp (its rig config, rig/lamp.hpp); refused naming the
-/// three when there is none. nullopt for a view-only model.
+/// three when there is none. nullopt for a view-only model, and for --light estimate while `obs` is null: called
+/// before the observation map is made (a fit refused for want of a light is refused before that work) and after it.
 Result<std::optional<ResolvedSessionLight>> resolve_session_light(const FitRequest& r, const capture::Session& session,
-                                                                  const fitting::ObsMapReader& obs,
+                                                                  const fitting::ObsMapReader* obs,
                                                                   fitting::MapFitOptions* options) {
   if (!model_reads_light(*options)) return std::optional<ResolvedSessionLight>();
+  if (r.light == kEstimateLight && !obs) return std::optional<ResolvedSessionLight>();
   auto& ggx = options->model_options.edit<fitting::GgxFitOptions>();
   ResolvedSessionLight out;
   if (ggx.light) {
@@ -273,7 +275,7 @@ Result<std::optional<ResolvedSessionLight>> resolve_session_light(const FitReque
     out.source = r.light.empty() ? "--light-scene " + r.light_scene + " (the simulated scene's point light)"
                                  : "--light " + r.light;
   } else if (r.light == kEstimateLight) {
-    auto estimate = estimate_session_light(obs, options->held_out, options->threads);
+    auto estimate = estimate_session_light(*obs, options->held_out, options->threads);
     if (!estimate) return estimate.error();
     out.light = estimate->session_light;
     out.source = "estimated from the images (phong:1 lobes, shared-lights pass): " + estimate->describe() +
@@ -323,6 +325,10 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
   if (o.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
   if (lead) VDRIG_TRY(check_fit_output_writable(out));
   if (lead && o.obsmap.empty()) VDRIG_TRY(check_map_fits(*options.model, o.texels_s, o.texels_t, out));
+  // Every rank resolves the light (the same on each: the estimate is deterministic), which its part of the fit reads;
+  // all but the estimate now, before the observation map.
+  auto light = resolve_session_light(o.request, session.value(), nullptr, &options);
+  if (!light) return light.error();
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever the resolution.
@@ -351,9 +357,10 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
                                    std::to_string(obs->spec().texels_s) + "x" + std::to_string(obs->spec().texels_t) +
                                    " texels)");
 
-  // Every rank resolves the light (the same on each: the estimate is deterministic), which its part of the fit reads.
-  auto light = resolve_session_light(o.request, session.value(), obs.value(), &options);
-  if (!light) return light.error();
+  if (o.request.light == kEstimateLight) {
+    light = resolve_session_light(o.request, session.value(), &obs.value(), &options);
+    if (!light) return light.error();
+  }
   if (light.value()) step(FitStep::kObservations, "light: " + light.value()->source);
 
   step(FitStep::kFit, "fit " + options.model->name() + o.ranks.description);

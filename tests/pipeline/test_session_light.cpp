@@ -195,6 +195,22 @@ TEST(SessionLight, ASimulatedRigRecordsItsScenesLamp) {
   auto nothing = recorded_session_light(none.value());
   ASSERT_TRUE(nothing) << nothing.error().describe();
   EXPECT_FALSE(nothing.value());
+  // ... before it builds the observation map (this session has no images to build it from).
+  FitStageOptions stage;
+  stage.session = dir / "n";
+  stage.request.model = "ggx:iso";
+  stage.texels_s = stage.texels_t = 4;
+  auto refused_fit = run_fit_stage(stage);
+  ASSERT_FALSE(refused_fit);
+  EXPECT_EQ(refused_fit.error().code, ErrorCode::kInvalidArgument);
+  for (const char* named : {"recorded none", "--light X,Y,Z", "--light estimate", "--light-scene"})
+    EXPECT_NE(refused_fit.error().message.find(named), std::string::npos) << refused_fit.error().message;
+  // --light estimate on a view-only model is refused like any option the model does not read.
+  stage.request.model = "phong:1";
+  stage.request.light = "estimate";
+  auto view_only = run_fit_stage(stage);
+  ASSERT_FALSE(view_only);
+  EXPECT_NE(view_only.error().message.find("--light does not apply"), std::string::npos) << view_only.error().message;
 }
 
 }  // namespace
