@@ -461,9 +461,11 @@ json sim_rig_config(const json& sim_section) {
   if (sim_section.is_object())
     if (auto scene = make_scene(sim_section.value("scene", "patchwork"));
         scene && scene->lights.size() == 1 && scene->area_lights.empty() && scene->ambient.isZero()) {
+      // To a thousandth (of a mm; of the intensity's unit, ~1e-10 of it): the config is shown to people (vdrig report).
+      const auto thousandths = [](const Vec3d& v) { return Vec3d((v * 1000.0).array().round() / 1000.0); };
       rig::LampPosition lamp;
-      lamp.position_mm = scene->lights.front().position_mm;
-      lamp.intensity = scene->lights.front().intensity;
+      lamp.position_mm = thousandths(scene->lights.front().position_mm);
+      lamp.intensity = thousandths(scene->lights.front().intensity);
       lamp.source = "the simulated scene " + scene->name + "'s point light";
       light.update(rig::lamp_keys(lamp));
     }
