@@ -80,7 +80,7 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
       }))
     return refuse("--smoothing");
   // The session light (BRDF models): from the command line or the simulated scene; `--light estimate` and the
-  // session's recorded light are resolved by the fit stage once the observations are open (resolve_session_light).
+  // session's recorded light are resolved by the fit stage, which has the session (resolve_session_light).
   if (!r.light.empty() && !r.light_scene.empty())
     return make_error(ErrorCode::kInvalidArgument, "--light and --light-scene: give one of the two");
   if (r.light == kEstimateLight) {
