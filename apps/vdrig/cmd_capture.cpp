@@ -12,6 +12,7 @@
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/rig/lamp.hpp"
 
 namespace vdrig::app {
 namespace {
@@ -75,6 +76,8 @@ Status run(const CaptureArgs& a) {
       rc = std::move(simulated.value());
       if (a.rig == "blender") rc["camera"] = {{"backend", "blender"}};
       if (blend) rc["camera"]["blend"] = fs::absolute(a.scene).string();
+      // The .blend's lights are its own, not patchwork's: no lamp recorded (a rig config with "position_mm" gives one).
+      if (blend) rc["light"] = rig::without_lamp_keys(rc["light"]);
     } else {
       auto file = read_json_file(a.rig);
       if (!file) return make_error(ErrorCode::kInvalidArgument, "cannot read rig config: " + file.error().message);

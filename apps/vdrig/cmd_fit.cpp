@@ -190,7 +190,9 @@ const CommandRegistrar kFit([](CLI::App& root) {
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}));
   cmd->add_option(
       "--light", args->light,
-      "BRDF models (ggx): the session's point light X,Y,Z[,I] (surface frame, metres; I relative, default 1)");
+      "BRDF models (ggx): the session's point light X,Y,Z[,I] (surface frame, metres; I relative, default 1), or "
+      "\"estimate\" (from the highlights: the Phong lobes' shared-lights pass refined by ggx:iso); default: the "
+      "light the session recorded (its rig config's lamp), refused when none");
   cmd->add_option("--light-scene", args->light_scene,
                   "BRDF models (ggx): take the light from the simulated scene the session was captured from");
   cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")

@@ -9,6 +9,7 @@
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/json_text.hpp"
 #include "vdrig/core/settings.hpp"
+#include "vdrig/rig/lamp.hpp"
 
 namespace vdrig::capture {
 namespace fs = std::filesystem;
@@ -218,6 +219,10 @@ Reply Protocol::start(const json& request, bool&) {
     if (!rig_config.contains("sim") || !rig_config["sim"].is_object())
       return make_error(ErrorCode::kInvalidArgument, "\"scene\" needs a sim rig");
     rig_config["sim"]["scene"] = request.at("scene");
+    // A lamp the config recorded from its own simulated scene (sim::sim_rig_config) is not the new scene's.
+    if (auto l = rig_config.find("light");
+        l != rig_config.end() && l->is_object() && l->value("position_source", "").rfind("the simulated scene", 0) == 0)
+      *l = rig::without_lamp_keys(*l);
   }
   PlanRequest plan;
   plan.rig_config = std::move(rig_config);

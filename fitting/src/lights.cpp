@@ -1,5 +1,7 @@
 #include "vdrig/fitting/lights.hpp"
 
+#include "vdrig/fitting/light_uncertainty.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
@@ -274,6 +276,34 @@ Result<std::vector<EstimatedLight>> estimate_point_lights(const std::vector<Lobe
   std::stable_sort(lights.begin(), lights.end(),
                    [](const EstimatedLight& a, const EstimatedLight& b) { return a.inliers > b.inliers; });
   return lights;
+}
+
+Result<Mat3d> light_position_covariance(const std::vector<LobeRay>& rays_in, const EstimatedLight& light,
+                                        const LightEstimationOptions& opt) {
+  if (light.at_infinity) return make_error(ErrorCode::kInvalidArgument, "a light at infinity has no position");
+  std::vector<Ray> rays;
+  for (const LobeRay& r : rays_in) {
+    const double n = r.toward_light.norm();
+    if (!(r.weight > 0.0) || !std::isfinite(r.weight) || !r.origin_mm.allFinite() || !std::isfinite(n) || !(n > 0.0))
+      continue;
+    rays.push_back({r.origin_mm, r.toward_light / n, r.weight});
+  }
+  std::vector<int> pool(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) pool[i] = static_cast<int>(i);
+  Model m;
+  m.point = light.position_mm;
+  const std::vector<int> inliers = inliers_of(m, rays, pool, std::cos(opt.inlier_angle_rad));
+  if (inliers.size() < 2) return make_error(ErrorCode::kInvalidArgument, "fewer than 2 rays explained by the light");
+  Mat3d h;
+  Vec3d g;
+  const double cost = angular_cost(rays, inliers, light.position_mm, &h, &g);
+  // Weighted residual variance per component: 2 cost = sum w |r|^2 over 2 components a ray, 3 parameters fitted.
+  const double dof = std::max(1.0, 2.0 * static_cast<double>(inliers.size()) - 3.0);
+  const double sigma2 = 2.0 * cost / dof;
+  const Eigen::SelfAdjointEigenSolver<Mat3d> eig(h);
+  if (!(eig.eigenvalues()[0] > 0.0)) return make_error(ErrorCode::kInvalidArgument, "the rays do not fix the position");
+  return Mat3d(sigma2 * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+               eig.eigenvectors().transpose());
 }
 
 }  // namespace vdrig::fitting

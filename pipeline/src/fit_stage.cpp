@@ -21,6 +21,7 @@
 #include "vdrig/pipeline/compare_stage.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
 #include "vdrig/pipeline/obsmap_stage.hpp"
+#include "vdrig/pipeline/session_light.hpp"
 
 namespace vdrig::pipeline {
 namespace fs = std::filesystem;
@@ -30,6 +31,8 @@ double default_smoothing(const fitting::ReflectanceModel& model) {
 }
 
 namespace {
+
+constexpr const char* kEstimateLight = "estimate";  // `--light estimate`
 
 /// The models' own options from the request (each model reads its own: fit_map.hpp, MapFitOptions::model_options).
 /// An option the user gave must change what the model's fit reads, i.e. its options_fingerprint, or it does not apply
@@ -76,10 +79,14 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
         o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
       }))
     return refuse("--smoothing");
-  // The session light (BRDF models): from the command line or the simulated scene.
+  // The session light (BRDF models): from the command line or the simulated scene; `--light estimate` and the
+  // session's recorded light are resolved by the fit stage, which has the session (resolve_session_light).
   if (!r.light.empty() && !r.light_scene.empty())
     return make_error(ErrorCode::kInvalidArgument, "--light and --light-scene: give one of the two");
-  if (!r.light.empty() || !r.light_scene.empty()) {
+  if (r.light == kEstimateLight) {
+    if (!applies([](fitting::MapFitOptions& o) { o.model_options.edit<fitting::GgxFitOptions>().light.emplace(); }))
+      return refuse("--light");
+  } else if (!r.light.empty() || !r.light_scene.empty()) {
     Result<fitting::SessionLight> light = make_error(ErrorCode::kInvalidArgument, "no light");
     if (!r.light.empty()) {
       light = parse_session_light(r.light);
@@ -244,6 +251,52 @@ std::string FitStageOptions::validate() const {
 
 namespace {
 
+/// Whether the model reads a session light (its fingerprint changes with one: the BRDF models).
+bool model_reads_light(const fitting::MapFitOptions& options) {
+  fitting::MapFitOptions with = options, without = options;
+  with.model_options.edit<fitting::GgxFitOptions>().light.emplace();
+  without.model_options.edit<fitting::GgxFitOptions>().light.reset();
+  return fitting::fit_options_fingerprint(with) != fitting::fit_options_fingerprint(without);
+}
+
+/// The light of a BRDF fit, in priority order: --light X,Y,Z[,I] or --light-scene (set by fit_options_for), --light
+/// estimate (from the observations), the session's recorded lamp (its rig config, rig/lamp.hpp); refused naming the
+/// three when there is none. nullopt for a view-only model, and for --light estimate while `obs` is null: called
+/// before the observation map is made (a fit refused for want of a light is refused before that work) and after it.
+Result<std::optional<ResolvedSessionLight>> resolve_session_light(const FitRequest& r, const capture::Session& session,
+                                                                  const fitting::ObsMapReader* obs,
+                                                                  fitting::MapFitOptions* options) {
+  if (!model_reads_light(*options)) return std::optional<ResolvedSessionLight>();
+  if (r.light == kEstimateLight && !obs) return std::optional<ResolvedSessionLight>();
+  auto& ggx = options->model_options.edit<fitting::GgxFitOptions>();
+  ResolvedSessionLight out;
+  if (ggx.light) {
+    out.light = *ggx.light;
+    out.source = r.light.empty() ? "--light-scene " + r.light_scene + " (the simulated scene's point light)"
+                                 : "--light " + r.light;
+  } else if (r.light == kEstimateLight) {
+    auto estimate = estimate_session_light(*obs, options->held_out, options->threads);
+    if (!estimate) return estimate.error();
+    out.light = estimate->session_light;
+    out.source = "estimated from the images (phong:1 lobes, shared-lights pass): " + estimate->describe() +
+                 "; intensity 1 at the sample's centre (gauge)";
+  } else {
+    auto recorded = recorded_session_light(session);
+    if (!recorded) return recorded.error();
+    if (!recorded.value())
+      return make_error(ErrorCode::kInvalidArgument,
+                        options->model->name() +
+                            " is a BRDF: its fit needs the session's light, and this session recorded none (its rig "
+                            "config's \"light\" has no \"position_mm\"); give --light X,Y,Z[,I] (surface frame, "
+                            "metres), --light estimate (from the highlights), or --light-scene SCENE (a simulated "
+                            "session)");
+    out = std::move(*recorded.value());
+  }
+  ggx.light = out.light;
+  out.source += " -> " + out.light.describe();
+  return std::optional<ResolvedSessionLight>(std::move(out));
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -272,6 +325,10 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
   if (o.out.empty()) VDRIG_TRY(check_no_symlinks_below(session->dir(), out));
   if (lead) VDRIG_TRY(check_fit_output_writable(out));
   if (lead && o.obsmap.empty()) VDRIG_TRY(check_map_fits(*options.model, o.texels_s, o.texels_t, out));
+  // Every rank resolves the light (the same on each: the estimate is deterministic), which its part of the fit reads;
+  // all but the estimate now, before the observation map.
+  auto light = resolve_session_light(o.request, session.value(), nullptr, &options);
+  if (!light) return light.error();
 
   // The observation map streams through a file (SESSION/obsmap/<S>x<T>.vdobs, reused while current) and is fitted a
   // tile at a time, so memory stays bounded whatever the resolution.
@@ -300,6 +357,12 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
                                    std::to_string(obs->spec().texels_s) + "x" + std::to_string(obs->spec().texels_t) +
                                    " texels)");
 
+  if (o.request.light == kEstimateLight) {
+    light = resolve_session_light(o.request, session.value(), &obs.value(), &options);
+    if (!light) return light.error();
+  }
+  if (light.value()) step(FitStep::kObservations, "light: " + light.value()->source);
+
   step(FitStep::kFit, "fit " + options.model->name() + o.ranks.description);
   FitStageResult result;
   result.obsmap_file = obsmap_path;
@@ -321,6 +384,7 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
   if (!lead || !map) return result;
   map->set_source_session(fs::absolute(o.session).string());
   if (!o.command.empty()) map->image().string_attributes["vdrig.command"] = o.command;
+  if (light.value()) map->image().string_attributes["vdrig.session_light_source"] = light.value()->source;
   map->image().number_attributes[fitting::kFitSecondsAttribute] = result.fit_seconds;
   VDRIG_TRY(map->write(out));
   if (o.ranks.after_write) VDRIG_TRY(o.ranks.after_write(obs.value(), options));

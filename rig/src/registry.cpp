@@ -5,6 +5,7 @@
 
 #include "vdrig/core/log.hpp"
 #include "vdrig/rig/geometry_config.hpp"
+#include "vdrig/rig/lamp.hpp"
 
 namespace vdrig::rig {
 namespace {
@@ -87,7 +88,19 @@ std::optional<Result<nlohmann::json>> BackendRegistry::check_device_section(cons
                                                                             const nlohmann::json& section) const {
   const BackendSpec* spec = spec_of(kind, backend);
   if (!spec) return std::nullopt;
-  return spec->check(section);
+  if (kind != "light") return spec->check(section);
+  // The lamp's measured position (lamp.hpp) is the registry's, not the backend's: checked here, stripped for the
+  // backend's parser and put back into the effective settings.
+  auto lamp = lamp_from_light_section(section);
+  auto checked = spec->check(without_lamp_keys(section));
+  if (!lamp && !checked)
+    return Result<nlohmann::json>(
+        make_error(ErrorCode::kInvalidArgument, checked.error().message + "; " + lamp.error().message));
+  if (!lamp) return Result<nlohmann::json>(lamp.error());
+  if (!checked || !lamp.value() || !checked->is_object()) return checked;
+  nlohmann::json effective = checked.value();
+  effective.update(lamp_keys(*lamp.value()));
+  return Result<nlohmann::json>(std::move(effective));
 }
 
 std::vector<std::string> BackendRegistry::top_level_problems(const nlohmann::json& config) const {
@@ -156,7 +169,7 @@ Result<Rig> BackendRegistry::make_rig(const nlohmann::json& config) const {
   if (!camera) return camera.error();
   rig.camera = std::move(camera.value());
   if (config.contains("light")) {
-    auto light = build(lights_, "light", config["light"], ctx);
+    auto light = build(lights_, "light", without_lamp_keys(config["light"]), ctx);
     if (!light) return light.error();
     rig.light = std::move(light.value());
   }

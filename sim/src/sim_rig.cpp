@@ -13,6 +13,7 @@
 #include "vdrig/core/log.hpp"
 #include "vdrig/core/settings.hpp"
 #include "vdrig/rig/geometry_config.hpp"
+#include "vdrig/rig/lamp.hpp"
 #include "vdrig/rig/motion.hpp"
 
 namespace vdrig::sim {
@@ -454,10 +455,21 @@ rig::BackendRegistry simulator_and_hardware_backends() {
 }
 
 json sim_rig_config(const json& sim_section) {
-  return {{"stage", {{"backend", "sim"}}},
-          {"camera", {{"backend", "sim"}}},
-          {"light", {{"backend", "sim"}}},
-          {"sim", sim_section}};
+  json light = {{"backend", "sim"}};
+  // The session records its light as a real rig's config states its measured lamp (rig/lamp.hpp): a scene lit by
+  // one point light gives its position and intensity, which a BRDF fit then takes (docs/models.md, "The light").
+  if (sim_section.is_object())
+    if (auto scene = make_scene(sim_section.value("scene", "patchwork"));
+        scene && scene->lights.size() == 1 && scene->area_lights.empty() && scene->ambient.isZero()) {
+      // To a thousandth (of a mm; of the intensity's unit, ~1e-10 of it): the config is shown to people (vdrig report).
+      const auto thousandths = [](const Vec3d& v) { return Vec3d((v * 1000.0).array().round() / 1000.0); };
+      rig::LampPosition lamp;
+      lamp.position_mm = thousandths(scene->lights.front().position_mm);
+      lamp.intensity = thousandths(scene->lights.front().intensity);
+      lamp.source = "the simulated scene " + scene->name + "'s point light";
+      light.update(rig::lamp_keys(lamp));
+    }
+  return {{"stage", {{"backend", "sim"}}}, {"camera", {{"backend", "sim"}}}, {"light", light}, {"sim", sim_section}};
 }
 
 }  // namespace vdrig::sim

@@ -1,0 +1,140 @@
+// The session's light on images vdrig did not render (docs/models.md, "The light"; docs/results.md, section 10): a
+// short Blender session of the textured, clearcoated plastic (as fidelity_test_blender_session makes it), whose rig
+// config records the lamp the .blend was built with, fitted with ggx:iso by the fit stage under that recorded light
+// (no --light) and under the light estimated from the images (--light estimate); the estimate against the .blend's
+// light, and both maps' held-out views against the photographs. Skipped when Blender is not installed or without
+// an OpenGL display.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include "vdrig/pipeline/fit_stage.hpp"
+#include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/pipeline/session_light.hpp"
+#include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/require_gl.hpp"
+#include "vdrig/test/temp_dir.hpp"
+
+namespace vdrig::pipeline {
+namespace {
+namespace fs = std::filesystem;
+
+double since_s(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+TEST(BlenderLight, EstimatedLightPredictsHeldOutViewsAsTheRecordedOne) {
+  if (std::system("command -v blender >/dev/null 2>&1") != 0) GTEST_SKIP() << "blender is not installed";
+  const test::TempDir dir("blender_light");
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path blend = dir.path() / "textured_clearcoat_plastic.blend";
+  const std::string make = "blender --background --factory-startup --python " +
+                           (fs::path(VDRIG_SOURCE_DIR) / "scripts" / "blender_scenes.py").string() + " -- " +
+                           dir.path().string() + " textured_clearcoat_plastic >/dev/null 2>&1";
+  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  // The .blend's light (scripts/blender_scenes.py: the built-in scenes' point light), stated as a rig's measured lamp.
+  const Vec3d lamp_mm(1500, 1500, 2000);
+  CaptureRequest req;
+  req.out_dir = dir.path() / "session";
+  req.rig_config = {
+      {"stage", {{"backend", "sim"}}},
+      {"camera", {{"backend", "blender"}, {"samples", 16}, {"blend", blend.string()}}},
+      {"light",
+       {{"backend", "sim"},
+        {"position_mm", {lamp_mm.x(), lamp_mm.y(), lamp_mm.z()}},
+        {"position_source", "scripts/blender_scenes.py"}}},
+      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 256}, {"height", 192}, {"fx", 320.0}, {"fy", 320.0}}}}}};
+  req.scheme = "latlong:3";
+  req.exposures_s = {1.0, 0.25, 0.0625};
+  auto session = capture_session(req);
+  ASSERT_TRUE(session) << session.error().describe();
+  const double capture_s = since_s(t0);
+  ASSERT_TRUE(calibrate_session_response(session.value()));
+  ASSERT_TRUE(merge_session_hdr(session.value()));
+  GeometryCalibrationOptions options;
+  options.camera = sim::SimConfig::from_json(req.rig_config["sim"])->camera;  // as a real camera's calibration file
+  ASSERT_TRUE(calibrate_session_geometry(session.value(), options));
+
+  const auto fit = [&](const std::string& light, const std::string& name) -> Result<FitStageResult> {
+    FitStageOptions stage;
+    stage.session = req.out_dir;
+    stage.request.model = "ggx:iso";
+    stage.request.holdout = 3;
+    stage.request.threads = 2;
+    stage.request.light = light;
+    stage.texels_s = stage.texels_t = 64;
+    stage.out = dir.path() / "maps" / (name + ".exr");
+    return run_fit_stage(stage);
+  };
+  const auto fit_start = std::chrono::steady_clock::now();
+  auto estimated = fit("estimate", "estimated");
+  ASSERT_TRUE(estimated) << estimated.error().describe();
+  const double estimate_s = since_s(fit_start);
+  auto recorded = fit("", "recorded");
+  ASSERT_TRUE(recorded) << recorded.error().describe();
+  auto estimated_map = fitting::ParameterMap::read(estimated->map_file);
+  ASSERT_TRUE(estimated_map) << estimated_map.error().describe();
+  const auto& attributes = estimated_map->image().string_attributes;
+  ASSERT_TRUE(attributes.contains("vdrig.session_light_source"));
+  EXPECT_NE(attributes.at("vdrig.session_light_source").find("estimated from the images"), std::string::npos);
+  auto recorded_map = fitting::ParameterMap::read(recorded->map_file);
+  ASSERT_TRUE(recorded_map) << recorded_map.error().describe();
+  EXPECT_NE(recorded_map->image().string_attributes.at("vdrig.session_light_source").find("rig config"),
+            std::string::npos);
+  // The estimate, as the fit stage made it (the same function on the same observations).
+  auto obs = fitting::ObsMapReader::open(estimated->obsmap_file);
+  ASSERT_TRUE(obs) << obs.error().describe();
+  auto estimate = estimate_session_light(obs.value(), estimated->held_out, 2);
+  ASSERT_TRUE(estimate) << estimate.error().describe();
+  const Vec3d error_mm = estimate->light.position_mm - lamp_mm;
+  const double direction_deg =
+      rad_to_deg(angle_between(estimate->light.position_mm.normalized(), lamp_mm.normalized()));
+
+  struct Figures {
+    double diffuse = 0, highlight = 0;
+  };
+  const auto compare = [&](const fs::path& map_file, const fs::path& out) -> Result<Figures> {
+    CompareOptions options;
+    options.out_dir = out;
+    auto compared = compare_maps(session.value(), {map_file}, estimated->held_out, options);
+    if (!compared) return compared.error();
+    Figures f;
+    long long dn = 0, hn = 0;
+    for (const ViewComparison& row : compared->rows) {
+      f.diffuse += row.diffuse.mean * row.diffuse.samples;
+      dn += row.diffuse.samples;
+      f.highlight += row.highlight.mean * row.highlight.samples;
+      hn += row.highlight.samples;
+    }
+    f.diffuse /= std::max(1LL, dn);
+    f.highlight /= std::max(1LL, hn);
+    return f;
+  };
+  auto with_recorded = compare(recorded->map_file, dir.path() / "compare_recorded");
+  if (!with_recorded && with_recorded.error().code == ErrorCode::kUnsupported)
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << with_recorded.error().message;
+  ASSERT_TRUE(with_recorded) << with_recorded.error().describe();
+  auto with_estimate = compare(estimated->map_file, dir.path() / "compare_estimated");
+  ASSERT_TRUE(with_estimate) << with_estimate.error().describe();
+  std::printf(
+      "capture %.1f s, all %.1f s; %s (fit with the estimate %.1f s)\n  error %.1f mm, direction %.3f deg, "
+      "distance %.1f mm; held out, recorded / estimated light: %.2f / %.2f diffuse, %.2f / %.2f highlight\n",
+      capture_s, since_s(t0), estimate->describe().c_str(), estimate_s, error_mm.norm(), direction_deg,
+      estimate->light.position_mm.norm() - lamp_mm.norm(), with_recorded->diffuse, with_estimate->diffuse,
+      with_recorded->highlight, with_estimate->highlight);
+  // Bounds: 1.5x the figures measured (docs/blender.md): the light 0.47 deg off in direction, 586 mm (20 %) near (the
+  // clearcoat's second lobe is outside ggx:iso, and 31 views fix the distance loosely; the Phong lobes alone put it
+  // 1.8 m off); held out 3.05 / 4.20 codes with the estimate against 3.03 / 4.00 with the recorded lamp.
+  EXPECT_LT(direction_deg, 0.7);
+  EXPECT_LT(error_mm.norm(), 880.0);
+  EXPECT_LT(with_estimate->diffuse, 4.6);
+  EXPECT_LT(with_estimate->highlight, 6.3);
+  EXPECT_LT(with_recorded->diffuse, 4.6);
+  EXPECT_LT(with_recorded->highlight, 6.0);
+  EXPECT_LT(with_estimate->highlight, 1.1 * with_recorded->highlight);
+}
+
+}  // namespace
+}  // namespace vdrig::pipeline
