@@ -781,7 +781,7 @@ Result<ParameterMap> GgxModel::fit_region(const MapFitContext& context, int s0, 
   if (!o.light)
     return make_error(ErrorCode::kInvalidArgument,
                       "ggx is a BRDF: its fit needs the session's light (vdrig fit --light X,Y,Z[,I] in metres, "
-                      "surface frame, or --light-scene SCENE for a simulated session)");
+                      "surface frame, --light-scene SCENE, --light estimate, or the lamp the session recorded)");
   const SessionLight light = *o.light;
   const int lc = light_channel();
   const ObservationMapSpec& spec = context.spec;

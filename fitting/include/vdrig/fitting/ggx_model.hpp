@@ -56,7 +56,7 @@ struct SessionLight {
 
 /// The fit options of the GGX model (fit_map.hpp's MapFitOptions::model_options).
 struct GgxFitOptions {
-  std::optional<SessionLight> light;  // required to fit (`vdrig fit --light X,Y,Z[,I]` or `--light-scene SCENE`)
+  std::optional<SessionLight> light;  // required to fit; pipeline's fit stage chooses it (docs/models.md, "The light")
   int max_iterations = 100;           // bounded Levenberg-Marquardt iterations per texel
 
   std::string fingerprint() const;
