@@ -42,6 +42,7 @@ struct FitArgs {
   std::string obsmap;  // an observation-map file to fit instead of SESSION/obsmap/<res>.vdobs
   int threads = 0;
   std::string light, light_scene;  // BRDF models: the session's point light (pipeline::FitRequest)
+  std::string weights = "auto";    // Phong: auto | none | solid-angle (pipeline::FitRequest)
   bool mpi = false;                // one rank of `mpirun -n N vdrig fit ... --mpi` (cluster/, docs/scale.md)
 };
 
@@ -58,6 +59,7 @@ std::string fit_command(const FitArgs& a) {
   if (a.all_lobes) cmd += " --all-lobes";
   if (!a.light.empty()) cmd += " --light " + a.light;
   if (!a.light_scene.empty()) cmd += " --light-scene " + a.light_scene;
+  if (a.weights != "auto") cmd += " --weights " + a.weights;
   if (a.mpi) cmd += " --mpi";
   if (a.smoothing) cmd += " --smoothing " + fmt::format("{:g}", *a.smoothing);
   if (a.window != "none") cmd += " --window " + a.window;
@@ -77,6 +79,7 @@ pipeline::FitRequest fit_request(const FitArgs& a) {
   r.threads = a.threads;
   r.light = a.light;
   r.light_scene = a.light_scene;
+  r.weights = a.weights;
   return r;
 }
 
@@ -195,6 +198,11 @@ const CommandRegistrar kFit([](CLI::App& root) {
       "light the session recorded (its rig config's lamp), refused when none");
   cmd->add_option("--light-scene", args->light_scene,
                   "BRDF models (ggx): take the light from the simulated scene the session was captured from");
+  cmd->add_option("--weights", args->weights,
+                  "Phong: observation weights, auto (by solid angle for an adaptive session) | none | solid-angle "
+                  "(each view weighed by its share of the hemisphere; docs/sampling.md)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "none", "solid-angle"}));
   cmd->add_option("--obsmap", args->obsmap, "fit this observation-map file (vdrig obsmap build) instead of --res")
       ->check(CLI::ExistingFile);
   cmd->add_option("--threads", args->threads,

@@ -38,6 +38,15 @@ bool parse_int(std::string_view text, int64_t* out) {
 
 }  // namespace
 
+std::string AdaptiveSettings::base_scheme() const {
+  if (!base.empty()) return base;
+  // Half of the views uniform: the planner's picks help where a highlight needs them, but a fit also needs the
+  // grazing and in-between directions that no highlight asks for (docs/results.md, "Adaptive sampling").
+  const int n = std::max(1, max_views / 2);
+  const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(kPi * n / 8.0))));
+  return "spiral:" + std::to_string(n) + ":" + std::to_string(rings) + "@85";
+}
+
 bool AdaptiveSettings::is_valid(std::string* why) const {
   std::vector<std::string> reasons;
   if (max_views < 2 || max_views > 5000) reasons.push_back("N (the most views) must be in 2..5000");
@@ -49,12 +58,13 @@ bool AdaptiveSettings::is_valid(std::string* why) const {
   if (patience < 1 || patience > 100) reasons.push_back("patience must be in 1..100");
   if (!(coverage_weight >= 0 && coverage_weight <= 100)) reasons.push_back("coverage must be in [0, 100]");
   if (!(move_weight_s > 0)) reasons.push_back("move_s must be > 0");
-  if (is_adaptive_scheme(base)) {
+  const std::string base_spec = base_scheme();
+  if (is_adaptive_scheme(base_spec)) {
     reasons.push_back("base must be a fixed scheme, not adaptive");
-  } else if (auto b = generate(base); !b) {
+  } else if (auto b = generate(base_spec); !b) {
     reasons.push_back("base: " + b.error().message);
   } else if (static_cast<int>(b->directions.size()) >= max_views) {
-    reasons.push_back("base \"" + base + "\" has " + std::to_string(b->directions.size()) +
+    reasons.push_back("base \"" + base_spec + "\" has " + std::to_string(b->directions.size()) +
                       " directions, not fewer than N = " + std::to_string(max_views));
   }
   if (reasons.empty()) return true;
@@ -85,7 +95,7 @@ std::string AdaptiveSettings::to_spec() const {
 nlohmann::json AdaptiveSettings::to_json() const {
   return {{"spec", to_spec()},
           {"max_views", max_views},
-          {"base", base},
+          {"base", base_scheme()},
           {"batch", batch},
           {"time_s", max_move_s},
           {"res", res},
@@ -232,7 +242,7 @@ Result<Manifest> plan_adaptive_manifest(const PlanRequest& request) {
   auto settings = parse_adaptive_scheme(request.scheme);
   if (!settings) return settings.error();
   PlanRequest base = request;
-  base.scheme = settings->base;
+  base.scheme = settings->base_scheme();
   auto m = plan_manifest(base);
   if (!m) return m.error();
   if (static_cast<int>(m->views.size()) >= settings->max_views)

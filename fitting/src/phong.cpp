@@ -2,6 +2,7 @@
 
 #include "bounded_lm.hpp"
 #include "vdrig/fitting/lobe_fit.hpp"
+#include "vdrig/fitting/voronoi.hpp"
 
 #include <ceres/ceres.h>
 
@@ -33,7 +34,8 @@ std::string PhongFitOptions::fingerprint() const {
                   static_cast<int>(solver), shared_shininess, max_shininess, max_iterations, static_cast<int>(residual),
                   relative_floor);
   for (const Vec3d& d : fixed_directions) s += fmt::format("{},{},{}/", d.x(), d.y(), d.z());
-  return s + fmt::format(",support:{},significant:{}", lobe_support, significant_lobes_only);
+  return s + fmt::format(",support:{},significant:{},solid_angle:{}", lobe_support, significant_lobes_only,
+                         solid_angle_weights);
 }
 
 bool PhongFitOptions::is_valid(std::string* why) const {
@@ -62,6 +64,32 @@ bool PhongFitOptions::is_valid(std::string* why) const {
 }
 
 namespace {
+
+/// The weights of the residuals as minimised, per observation and channel (3 each): 1 for absolute, 1 / (|o| +
+/// floor) for relative, times sqrt(the observation's solid angle / its mean) with solid_angle_weights, so that the
+/// sum of squares approximates the integral of the squared error over the hemisphere whatever the views' density.
+/// The solid angle is the observation's spherical Voronoi cell (voronoi.hpp), capped at kMaxSolidAngleWeight times
+/// the mean so that one lone view at the horizon does not carry the fit.
+constexpr double kMaxSolidAngleWeight = 8.0;
+std::vector<double> residual_weights(const TexelObservations& obs, const PhongFitOptions& opt) {
+  std::vector<double> weight(3 * obs.size(), 1.0);
+  if (opt.residual == ResidualMode::kRelative)
+    for (size_t i = 0; i < obs.size(); ++i)
+      for (int c = 0; c < 3; ++c) weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
+  if (opt.solid_angle_weights && obs.size() > 1) {
+    std::vector<Vec3d> dirs(obs.size());
+    for (size_t i = 0; i < obs.size(); ++i) dirs[i] = obs.direction[i].cast<double>();
+    std::vector<double> area = hemisphere_voronoi_areas(dirs);
+    double total = 0;
+    for (double a : area) total += a;
+    if (total > 0)
+      for (size_t i = 0; i < obs.size(); ++i) {
+        const double w = std::min(area[i] * static_cast<double>(obs.size()) / total, kMaxSolidAngleWeight);
+        for (int c = 0; c < 3; ++c) weight[3 * i + c] *= std::sqrt(w);
+      }
+  }
+  return weight;
+}
 
 /// Residuals of one texel's Phong-K model over all its observations (3 per observation) with analytic derivatives,
 /// accumulated straight into the normal equations J^T J, J^T r (the Jacobian itself, 3N x P, is never stored).
@@ -309,10 +337,7 @@ PhongFit solve(const TexelObservations& obs, const PhongFitOptions& opt, const P
       }
     }
   }
-  std::vector<double> weight(3 * obs.size(), 1.0);
-  if (opt.residual == ResidualMode::kRelative)
-    for (size_t i = 0; i < obs.size(); ++i)
-      for (int c = 0; c < 3; ++c) weight[3 * i + c] = 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor);
+  std::vector<double> weight = residual_weights(obs, opt);
   PhongFit fit;
   if (opt.solver == PhongSolver::kCeres) {
     p = p.cwiseMax(lo).cwiseMin(hi);
@@ -431,18 +456,14 @@ PhongFit mean_only_fit(const TexelObservations& obs) {
   return fit;
 }
 
-/// The weight of observation i, channel c, in the residuals as minimised (PhongTexelCost's).
-double residual_weight(const TexelObservations& obs, const PhongFitOptions& opt, size_t i, int c) {
-  return opt.residual == ResidualMode::kRelative ? 1.0 / (std::abs(obs.radiance[i][c]) + opt.relative_floor) : 1.0;
-}
-
 /// The fit with no lobe: Kd by (weighted) linear least squares, its cost as the lobed fits' (converged).
 PhongFit no_lobe_fit(const TexelObservations& obs, const PhongFitOptions& opt) {
   PhongFit fit;
+  const std::vector<double> weight = residual_weights(obs, opt);
   for (int c = 0; c < 3; ++c) {
     double wo = 0, ww = 0;
     for (size_t i = 0; i < obs.size(); ++i) {
-      const double w2 = std::pow(residual_weight(obs, opt, i, c), 2);
+      const double w2 = std::pow(weight[3 * i + c], 2);
       wo += w2 * obs.radiance[i][c];
       ww += w2;
     }
@@ -450,7 +471,7 @@ PhongFit no_lobe_fit(const TexelObservations& obs, const PhongFitOptions& opt) {
   }
   for (size_t i = 0; i < obs.size(); ++i)
     for (int c = 0; c < 3; ++c)
-      fit.cost += 0.5 * std::pow((fit.params.kd[c] - obs.radiance[i][c]) * residual_weight(obs, opt, i, c), 2);
+      fit.cost += 0.5 * std::pow((fit.params.kd[c] - obs.radiance[i][c]) * weight[3 * i + c], 2);
   fit.converged = true;
   fit.quality = measure_quality(fit.params, obs);
   return fit;

@@ -17,6 +17,8 @@ namespace {
 
 /// Views a lobe's support cone should hold before its width counts as measured: docs/sampling.md, "adaptive".
 constexpr double kWantedLobeViews = 6.0;
+/// Lobes per texel the planner fits (each kept only where the observations support it).
+constexpr int kPlannerLobes = 2;
 /// Lobes broader than this (support cone of 37 deg half-angle) are left to the coverage term.
 constexpr double kNarrowLobeShininess = 10.0;
 /// Candidate directions: an equal-area jittered grid (stratified, seeded) of this many rows and columns.
@@ -132,8 +134,10 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
           std::find(req.previous_batch.begin(), req.previous_batch.end(), views[k]) != req.previous_batch.end();
       if (req.previous_batch.empty() ? k % 4 == 2 : in_last) held.push_back(static_cast<int>(k));
     }
+    // Two lobes where the texel's observations support them (the fit's BIC and detection rules): a scene lit by two
+    // lights has two highlights per texel, and one lobe would leave the weaker one to the coverage term.
     fitting::PhongFitOptions phong;
-    phong.lobes = 1;
+    phong.lobes = kPlannerLobes;
     std::vector<TexelLobe> lobes;
     double err2 = 0, sig2 = 0;
     int poorly = 0;
@@ -154,22 +158,23 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
           }
         }
         const fitting::PhongFit fit = fitting::fit_phong(all, phong);
-        if (fit.params.lobes.empty()) continue;
-        const fitting::PhongLobe& lobe = fit.params.lobes.front();
-        // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
-        if (lobe.shininess < kNarrowLobeShininess) continue;
-        TexelLobe tl;
-        tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
-        tl.direction = lobe.direction.normalized();
-        tl.shininess = lobe.shininess;
-        const double ks = luminance(lobe.ks), kd = luminance(fit.params.kd);
-        tl.weight = ks / std::max(1e-12, ks + kd);
-        tl.capped = fit.capped_lobes > 0;
-        const double cone_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / std::max(1.0, tl.shininess));
-        for (size_t i = 0; i < all.size(); ++i)
-          if (all.direction[i].cast<double>().dot(tl.direction) >= cone_cos) tl.in_cone += 1;
-        if (tl.poorly_constrained()) ++poorly;
-        lobes.push_back(tl);
+        double brightness = luminance(fit.params.kd);
+        for (const auto& lobe : fit.params.lobes) brightness += luminance(lobe.ks);
+        for (const auto& lobe : fit.params.lobes) {
+          // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
+          if (lobe.shininess < kNarrowLobeShininess) continue;
+          TexelLobe tl;
+          tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+          tl.direction = lobe.direction.normalized();
+          tl.shininess = lobe.shininess;
+          tl.weight = luminance(lobe.ks) / std::max(1e-12, brightness);
+          tl.capped = fit.capped_lobes > 0;
+          const double cone_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / std::max(1.0, tl.shininess));
+          for (size_t i = 0; i < all.size(); ++i)
+            if (all.direction[i].cast<double>().dot(tl.direction) >= cone_cos) tl.in_cone += 1;
+          if (tl.poorly_constrained()) ++poorly;
+          lobes.push_back(tl);
+        }
       }
     const double predicted_error = sig2 > 0 ? std::sqrt(err2 / sig2) : 0.0;
 

@@ -12,6 +12,7 @@
 #include <functional>
 #include <vector>
 
+#include "vdrig/capture/adaptive.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/fitting/hsh.hpp"
@@ -44,6 +45,7 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
   phong.residual = r.residual == "relative" ? fitting::ResidualMode::kRelative : fitting::ResidualMode::kAbsolute;
   phong.lobe_support = r.lobe_support;
   phong.significant_lobes_only = !r.all_lobes;
+  phong.solid_angle_weights = r.weights == "solid-angle";
   // SH/HSH regularisation: both option sets get it, the model's own validation rejects what does not apply.
   const double smoothing = r.smoothing.value_or(default_smoothing(*options->model));
   const fitting::RingingWindow window = r.window == "hanning"   ? fitting::RingingWindow::kHanning
@@ -74,6 +76,10 @@ Status set_model_options(const FitRequest& r, fitting::MapFitOptions* options) {
         o.model_options.edit<fitting::PhongFitOptions>().significant_lobes_only = true;
       }))
     return refuse("--all-lobes");
+  if (r.weights == "solid-angle" && !applies([](fitting::MapFitOptions& o) {
+        o.model_options.edit<fitting::PhongFitOptions>().solid_angle_weights = false;
+      }))
+    return refuse("--weights solid-angle");
   if (r.smoothing.value_or(0.0) != 0.0 && !applies([](fitting::MapFitOptions& o) {
         o.model_options.edit<fitting::ShFitOptions>().smoothing += 1.0;
         o.model_options.edit<fitting::HshFitOptions>().smoothing += 1.0;
@@ -146,13 +152,15 @@ Result<fitting::SessionLight> session_light_of(const sim::Scene& scene) {
 }
 
 Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_views,
-                                               const std::vector<bool>& unusable) {
+                                               const std::vector<bool>& unusable, const std::string& scheme) {
   auto model = fitting::parse_model(r.model);
   if (!model) return model.error();
   if (r.residual != "absolute" && r.residual != "relative")
     return make_error(ErrorCode::kInvalidArgument, "--residual must be absolute or relative");
   if (r.window != "none" && r.window != "hanning" && r.window != "lanczos")
     return make_error(ErrorCode::kInvalidArgument, "--window must be none, hanning or lanczos");
+  if (r.weights != "auto" && r.weights != "none" && r.weights != "solid-angle")
+    return make_error(ErrorCode::kInvalidArgument, "--weights must be auto, none or solid-angle");
   if (r.threads < 0 || r.threads > fitting::MapFitOptions::kMaxThreads)
     return make_error(ErrorCode::kInvalidArgument, "--threads must be in [0, " +
                                                        std::to_string(fitting::MapFitOptions::kMaxThreads) +
@@ -165,6 +173,10 @@ Result<fitting::MapFitOptions> fit_options_for(const FitRequest& r, int session_
   options.threads = r.threads;
   options.shared_lights = r.shared_lights;
   VDRIG_TRY(set_model_options(r, &options));
+  // An adaptive session's views are dense where its planner put them (highlights): a plain least-squares fit would
+  // weigh those directions more than the hemisphere's average error does (docs/sampling.md, "adaptive").
+  if (r.weights == "auto" && capture::is_adaptive_scheme(scheme))
+    options.model_options.edit<fitting::PhongFitOptions>().solid_angle_weights = true;
   // Held-out views spread over the session (never the normal view 0), as `vdrig demo` picks them. The observation
   // map holds every view so that the fit can measure the model on the held-out ones (holdout.R/G/B) while leaving
   // them out of the fit itself.
@@ -316,7 +328,7 @@ Result<FitStageResult> run_fit_steps(const FitStageOptions& o) {
   if (auto geometry = session_geometry(session.value()); geometry)
     for (size_t v = 0; v < geometry->excluded.size() && v < unusable.size(); ++v)
       unusable[v] = unusable[v] || geometry->excluded[v];
-  auto fit_options = fit_options_for(o.request, n_views, unusable);
+  auto fit_options = fit_options_for(o.request, n_views, unusable, session->manifest().scheme);
   if (!fit_options) return fit_options.error();
   fitting::MapFitOptions& options = fit_options.value();
   const bool lead = o.ranks.lead;

@@ -60,6 +60,26 @@ TEST(FitStage, SmoothingDefaultsToTheBasisFitsThatRing) {
   EXPECT_EQ(default_smoothing(*fitting::parse_model("phong:1").value()), 0.0);
 }
 
+TEST(FitStage, SolidAngleWeightsForAdaptiveSessions) {
+  auto weighted = [](const std::string& weights, const std::string& scheme) {
+    FitRequest r;
+    r.weights = weights;
+    auto o = fit_options_for(r, 40, {}, scheme);
+    EXPECT_TRUE(o.is_ok()) << o.error().describe();
+    return o.is_ok() && o->model_options.get<fitting::PhongFitOptions>().solid_angle_weights;
+  };
+  EXPECT_TRUE(weighted("auto", "adaptive:60,batch=8"));
+  EXPECT_FALSE(weighted("auto", "spiral:60:5@85"));
+  EXPECT_FALSE(weighted("none", "adaptive:60"));
+  EXPECT_TRUE(weighted("solid-angle", "icosahedron:2@85"));
+  FitRequest r;
+  r.weights = "voronoi";
+  EXPECT_NE(fit_options_for(r, 10).error().message.find("--weights"), std::string::npos);
+  r.weights = "solid-angle";
+  r.model = "hsh:3";
+  EXPECT_NE(fit_options_for(r, 10).error().message.find("--weights solid-angle does not apply"), std::string::npos);
+}
+
 TEST(FitStage, BadRequestsNameTheOption) {
   auto error_of = [](FitRequest r, int views = 10) {
     auto o = fit_options_for(r, views);

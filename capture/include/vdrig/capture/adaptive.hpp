@@ -33,19 +33,21 @@ namespace vdrig::capture {
 
 /// `adaptive:N[,key=value]...` (docs/sampling.md has each key and why its default).
 struct AdaptiveSettings {
-  int max_views = 60;                     // N: views in all, base included
-  std::string base = "icosahedron:1@85";  // the coarse scheme captured first (schemes.hpp grammar)
-  int batch = 6;                          // views chosen per batch
-  double max_move_s = 0;                  // budget of planned stage move time, s (0: none)
-  int res = 12;                           // coarse observation map: res x res texels
-  double max_zenith_deg = 85;             // candidates' zenith limit
-  double min_gain = 0.03;                 // relative improvement of the predicted error that counts as progress
-  int patience = 2;                       // batches without progress before stopping
-  double coverage_weight = 0.25;          // weight of coverage gaps against poorly constrained lobes
-  double move_weight_s = 4.0;             // a move of this many seconds halves a candidate's value
-  uint64_t seed = 1;                      // jitter of the candidate directions
-  std::string camera;                     // intrinsics (camera.yml) the planner projects with; empty: SESSION/calib
+  int max_views = 60;             // N: views in all, base included
+  std::string base;               // the coarse scheme captured first (schemes.hpp grammar); empty: base_scheme()
+  int batch = 6;                  // views chosen per batch
+  double max_move_s = 0;          // budget of planned stage move time, s (0: none)
+  int res = 12;                   // coarse observation map: res x res texels
+  double max_zenith_deg = 85;     // candidates' zenith limit
+  double min_gain = 0.03;         // relative improvement of the predicted error that counts as progress
+  int patience = 2;               // batches without progress before stopping
+  double coverage_weight = 0.25;  // weight of coverage gaps against poorly constrained lobes
+  double move_weight_s = 4.0;     // a move of this many seconds halves a candidate's value
+  uint64_t seed = 1;              // jitter of the candidate directions
+  std::string camera;             // intrinsics (camera.yml) the planner projects with; empty: SESSION/calib
 
+  /// `base`, or when empty half of N in a spiral to 85 deg (spiral:N/2:R@85, R = sqrt(pi N / 16)): docs/sampling.md.
+  std::string base_scheme() const;
   bool is_valid(std::string* why) const;
   std::string to_spec() const;
   nlohmann::json to_json() const;

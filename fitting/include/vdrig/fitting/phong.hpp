@@ -82,6 +82,11 @@ struct PhongFitOptions {
   // Lobe count chosen by BIC among 0..lobes (phong:K) or 0..max_lobes (phong:auto); false: always `lobes` lobes
   // (phong:K) or at least one (phong:auto), as before.
   bool significant_lobes_only = true;
+  // Each observation's squared residual weighted by the solid angle of its spherical Voronoi cell (voronoi.hpp;
+  // relative to the mean, capped at 8x): the fit then minimises the error integrated over the hemisphere, as the
+  // evaluation measures it, rather than over the views, which weighs where views are dense. For non-uniform view
+  // sets (adaptive:N, dense-around); on a uniform set the weights are about 1 (docs/sampling.md, "adaptive").
+  bool solid_angle_weights = false;
 
   bool is_valid(std::string* why) const;
   /// Every field as text (model_options.hpp): equal text, equal options. A new field goes here too.

@@ -35,6 +35,9 @@ struct FitRequest {
   /// 1), or the single point light of a simulated scene (a built-in name or FILE.json); at most one of the two.
   std::string light;
   std::string light_scene;
+  /// Phong: auto (solid-angle weights for an adaptive session, none otherwise) | none | solid-angle
+  /// (fitting::PhongFitOptions::solid_angle_weights; docs/sampling.md, "adaptive").
+  std::string weights = "auto";
 };
 
 /// The session light of `text` ("X,Y,Z" or "X,Y,Z,I": surface frame, metres; I default 1); kInvalidArgument with the
@@ -56,8 +59,9 @@ double default_smoothing(const fitting::ReflectanceModel& model);
 /// --lobe-support on a model without lobes: "does not apply to").
 /// `unusable` (per view, may be empty): views whose observations the fit does not get (excluded by the calibration,
 /// incomplete); held-out views are chosen among the others, and too few of them for --holdout is kInvalidArgument.
+/// `scheme`: the session's sampling scheme; weights "auto" weighs a Phong fit by solid angle for `adaptive:` ones.
 Result<fitting::MapFitOptions> fit_options_for(const FitRequest& request, int session_views,
-                                               const std::vector<bool>& unusable = {});
+                                               const std::vector<bool>& unusable = {}, const std::string& scheme = {});
 
 /// Fails unless a file can be created beside `out` (its folder is made when missing) and `out` is not a folder:
 /// checked before the fit, which can take hours, rather than when the map is written.
