@@ -45,6 +45,7 @@ struct AdaptiveSettings {
   double move_weight_s = 4.0;             // a move of this many seconds halves a candidate's value
   uint64_t seed = 1;                      // jitter of the candidate directions
   std::string camera;                     // intrinsics (camera.yml) the planner projects with; empty: SESSION/calib
+  int ahead = 3;  // batches the plan looks ahead: routed at once, the next batch taken along that route (1: alone)
 
   bool is_valid(std::string* why) const;
   std::string to_spec() const;
@@ -61,7 +62,8 @@ struct BatchRequest {
   const Session* session = nullptr;  // views complete so far: the data
   AdaptiveSettings settings;
   int batch = 0;              // 1, 2, ... (0 is the base scheme)
-  int max_views = 0;          // at most this many in the batch
+  int max_views = 0;          // at most this many: `ahead` batches (within the budget), of which the loop takes
+                              // the next `settings.batch` along their route
   PanTilt from;               // where the stage is (the last view's target)
   rig::RigGeometry geometry;  // what planning aims with (geometry_from_rig_config)
   rig::StageSpec stage;
