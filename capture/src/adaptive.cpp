@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <mutex>
+#include <span>
 
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/route.hpp"
@@ -51,6 +52,7 @@ bool AdaptiveSettings::is_valid(std::string* why) const {
   std::vector<std::string> reasons;
   if (max_views < 2 || max_views > 5000) reasons.push_back("N (the most views) must be in 2..5000");
   if (batch < 1 || batch > 100) reasons.push_back("batch must be in 1..100");
+  if (ahead < 1 || ahead > 100) reasons.push_back("ahead (batches planned and routed at once) must be in 1..100");
   if (!(max_move_s >= 0)) reasons.push_back("time_s (move-time budget) must be >= 0 (0: none)");
   if (res < 2 || res > 128) reasons.push_back("res (coarse map texels per side) must be in 2..128");
   if (!(max_zenith_deg > 0 && max_zenith_deg <= 90)) reasons.push_back("zenith must be in (0, 90]");
@@ -89,6 +91,7 @@ std::string AdaptiveSettings::to_spec() const {
   if (move_weight_s != d.move_weight_s) s += fmt::format(",move_s={:g}", move_weight_s);
   if (seed != d.seed) s += ",seed=" + std::to_string(seed);
   if (!camera.empty()) s += ",camera=" + camera;
+  if (ahead != d.ahead) s += ",ahead=" + std::to_string(ahead);
   return s;
 }
 
@@ -105,7 +108,8 @@ nlohmann::json AdaptiveSettings::to_json() const {
           {"coverage", coverage_weight},
           {"move_s", move_weight_s},
           {"seed", seed},
-          {"camera", camera}};
+          {"camera", camera},
+          {"ahead", ahead}};
 }
 
 bool is_adaptive_scheme(std::string_view spec) { return spec.rfind("adaptive:", 0) == 0; }
@@ -171,6 +175,8 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
       number(&a.move_weight_s);
     else if (key == "camera")
       a.camera = std::string(value);
+    else if (key == "ahead")
+      whole(&a.ahead);
     else if (key == "seed") {
       if (parse_int(value, &k) && k >= 0)
         a.seed = static_cast<uint64_t>(k);
@@ -178,7 +184,7 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
         reasons.push_back("seed must be a whole number >= 0");
     } else {
       reasons.push_back("unknown key \"" + key +
-                        "\" (base, batch, time_s, res, zenith, gain, patience, coverage, move_s, seed, camera)");
+                        "\" (base, batch, time_s, res, zenith, gain, patience, coverage, move_s, seed, camera, ahead)");
     }
   }
   std::string why;
@@ -326,7 +332,7 @@ Status run_adaptive_session(rig::Rig& rig, Session& session, ViewPlanner& planne
       req.session = &session;
       req.settings = settings.value();
       req.batch = static_cast<int>(progress.batches.size()) + 1;
-      req.max_views = std::min(settings->batch, settings->max_views - views);
+      req.max_views = std::min(settings->ahead * settings->batch, settings->max_views - views);
       req.from = session.manifest().views.back().target;
       req.geometry = geometry.value();
       req.stage = stage;
@@ -338,10 +344,14 @@ Status run_adaptive_session(rig::Rig& rig, Session& session, ViewPlanner& planne
       const TargetPlan targets = plan_targets(geometry.value(), stage, plan.directions, req.from.pan_rad);
       std::vector<PanTilt> pts;
       for (const auto& t : targets.reachable) pts.push_back(t.pan_tilt);
+      // The plan is of `ahead` batches; the batch is the next `batch` views along their route from where the stage
+      // is, visited in that order, and the next batch replans the rest with the new views: the stage follows one
+      // tour of what is still worth taking rather than a tour per batch that ends anywhere (docs/sampling.md).
       const Route route = plan_route(stage, req.from, pts);
+      const size_t batch_size = std::min<size_t>(route.order.size(), static_cast<size_t>(settings->batch));
       // The time budget: the batch is cut where its moves would pass it.
       PanTilt at = req.from;
-      for (size_t k : route.order) {
+      for (size_t k : std::span(route.order).first(batch_size)) {
         const double m = move_time_s(stage, at, pts[k]);
         if (settings->max_move_s > 0 && progress.planned_move_s() + move_s + m > settings->max_move_s) break;
         move_s += m;

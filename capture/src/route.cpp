@@ -232,4 +232,19 @@ Route plan_route(const rig::StageSpec& spec, const PanTilt& start, std::span<con
   return route;
 }
 
+Insertion cheapest_insertion(const rig::StageSpec& spec, const PanTilt& start, std::span<const PanTilt> route,
+                             const PanTilt& target) {
+  Insertion best{std::numeric_limits<double>::infinity(), route.size()};
+  const PanTilt* prev = &start;
+  for (std::size_t k = 0; k <= route.size(); ++k) {
+    const double to = move_time_s(spec, *prev, target);
+    // At the end the route is open: nothing to rejoin.
+    const double added =
+        k < route.size() ? to + move_time_s(spec, target, route[k]) - move_time_s(spec, *prev, route[k]) : to;
+    if (added < best.added_s - kImprovement) best = {added, k};
+    if (k < route.size()) prev = &route[k];
+  }
+  return best;
+}
+
 }  // namespace vdrig::capture

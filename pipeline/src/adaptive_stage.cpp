@@ -209,6 +209,7 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
     capture::BatchPlan plan;
     plan.predicted_error = predicted_error;
     PanTilt at = req.from;
+    std::vector<PanTilt> route;  // ahead > 1: the picks so far, each inserted where it adds the least move time
     double lobe_total = 0, coverage_total = 0;
     for (int pick = 0; pick < req.max_views; ++pick) {
       int best = -1;
@@ -226,7 +227,9 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
         const double g = std::min(gap, kGapCapRad) / kGapRad;
         const double cov_term = a.coverage_weight * g * g / 9.0;  // 1 at the capped gap
         const double value = lobe_term + cov_term;
-        const double utility = value / (1.0 + capture::move_time_s(req.stage, at, c.target) / a.move_weight_s);
+        const double move_s = a.ahead > 1 ? capture::cheapest_insertion(req.stage, req.from, route, c.target).added_s
+                                          : capture::move_time_s(req.stage, at, c.target);
+        const double utility = value / (1.0 + move_s / a.move_weight_s);
         if (utility > best_utility) {
           best_utility = utility;
           best = static_cast<int>(i);
@@ -240,6 +243,10 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
       plan.directions.push_back(c.direction);
       taken.push_back(c.direction);
       at = c.target;
+      if (a.ahead > 1) {
+        const auto into = capture::cheapest_insertion(req.stage, req.from, route, c.target);
+        route.insert(route.begin() + static_cast<std::ptrdiff_t>(into.position), c.target);
+      }
       lobe_total += best_lobe;
       coverage_total += best_cov;
       for (size_t k = 0; k < lobes.size(); ++k)

@@ -204,5 +204,38 @@ TEST(Route, LargeInputStaysWithinItsBudget) {
   EXPECT_LT(r.planning_s, options.time_budget_s + 3.0);
 }
 
+// Adaptive sampling weighs a candidate by the move time its insertion into the route adds (capture/adaptive.hpp):
+// the cheapest position, against every position tried by recomputing the whole route.
+TEST(Route, CheapestInsertionIsTheBestPositionByRecomputation) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pan(-kPi, kPi), tilt(0.0, kPi / 2.0);
+  const auto spec = stage();
+  const PanTilt start{0.3, 0.2};
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<PanTilt> route(static_cast<size_t>(trial % 7));
+    for (auto& p : route) p = {pan(rng), tilt(rng)};
+    const PanTilt target{pan(rng), tilt(rng)};
+    auto total = [&](const std::vector<PanTilt>& r) {
+      std::vector<std::size_t> order(r.size());
+      std::iota(order.begin(), order.end(), std::size_t{0});
+      return route_time_s(spec, start, r, order);
+    };
+    const double before = total(route);
+    double best = 1e300;
+    std::size_t best_at = 0;
+    for (std::size_t k = 0; k <= route.size(); ++k) {
+      auto r = route;
+      r.insert(r.begin() + static_cast<std::ptrdiff_t>(k), target);
+      if (total(r) - before < best - 1e-9) {
+        best = total(r) - before;
+        best_at = k;
+      }
+    }
+    const Insertion got = cheapest_insertion(spec, start, route, target);
+    EXPECT_NEAR(got.added_s, best, 1e-9) << "trial " << trial;
+    EXPECT_EQ(got.position, best_at) << "trial " << trial;
+  }
+}
+
 }  // namespace
 }  // namespace vdrig::capture

@@ -45,6 +45,7 @@ struct AdaptiveSettings {
   double move_weight_s = 4.0;     // a move of this many seconds halves a candidate's value
   uint64_t seed = 1;              // jitter of the candidate directions
   std::string camera;             // intrinsics (camera.yml) the planner projects with; empty: SESSION/calib
+  int ahead = 3;  // batches the plan looks ahead: routed at once, the next batch taken along that route (1: alone)
 
   /// `base`, or when empty half of N in a spiral to 85 deg (spiral:N/2:R@85, R = sqrt(pi N / 16)): docs/sampling.md.
   std::string base_scheme() const;
@@ -63,7 +64,8 @@ struct BatchRequest {
   const Session* session = nullptr;  // views complete so far: the data
   AdaptiveSettings settings;
   int batch = 0;              // 1, 2, ... (0 is the base scheme)
-  int max_views = 0;          // at most this many in the batch
+  int max_views = 0;          // at most this many: `ahead` batches (within the budget), of which the loop takes
+                              // the next `settings.batch` along their route
   PanTilt from;               // where the stage is (the last view's target)
   rig::RigGeometry geometry;  // what planning aims with (geometry_from_rig_config)
   rig::StageSpec stage;

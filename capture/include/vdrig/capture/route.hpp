@@ -49,4 +49,14 @@ struct Route {
 Route plan_route(const rig::StageSpec& spec, const PanTilt& start, std::span<const PanTilt> targets,
                  const RouteOptions& options = {});
 
+/// Cheapest insertion of `target` into the open route start -> route[0] -> route[1] -> ...: the move time it adds
+/// (s) and where it goes (before route[position]; route.size(): at the end). Adaptive sampling weighs a candidate
+/// view by this against the route it is planning (capture/adaptive.hpp).
+struct Insertion {
+  double added_s = 0.0;
+  std::size_t position = 0;
+};
+Insertion cheapest_insertion(const rig::StageSpec& spec, const PanTilt& start, std::span<const PanTilt> route,
+                             const PanTilt& target);
+
 }  // namespace vdrig::capture
