@@ -128,7 +128,7 @@ Result<WebScene> web_scene(const fs::path& session_dir, const std::string& map_n
   out.scene = {{"map", name},
                {"maps", maps},
                {"model", map->model().name()},
-               {"glsl", viewer::model_glsl(map.value())},
+               {"glsl", viewer::surface_glsl(map.value())},
                {"texels", {map->texels_s(), map->texels_t()}},
                {"size_mm", {map->width_mm(), map->height_mm()}},
                {"layers", layers},
