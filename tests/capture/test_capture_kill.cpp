@@ -11,7 +11,7 @@
 #include <random>
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/core/image_io.hpp"
@@ -27,17 +27,8 @@ using testing::small_sim_config;
 
 fs::path create_session(const std::string& name, const std::string& scheme, const std::string& bracket) {
   const fs::path dir = test::fresh_temp_dir("kill_" + name);
-  auto rig = make_sim_rig(small_sim_config());
-  EXPECT_TRUE(rig) << rig.error().describe();
-  PlanRequest req;
-  req.rig_config = small_sim_config();
-  req.scheme = scheme;
-  req.bracket = bracket;
-  req.stage = rig->stage->spec();
-  auto manifest = plan_manifest(req);
+  auto manifest = testing::create_sim_session(dir, small_sim_config(), scheme, bracket);
   EXPECT_TRUE(manifest) << manifest.error().describe();
-  auto session = Session::create(dir, manifest.value());
-  EXPECT_TRUE(session) << session.error().describe();
   return dir;
 }
 
