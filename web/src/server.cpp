@@ -23,6 +23,7 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/open_below.hpp"
 
 // Last: httplib.h includes <resolv.h>, whose macro `_res` breaks Eigen's headers (which vdrig's include).
 #include <httplib.h>
@@ -308,16 +309,11 @@ struct Server::Impl {
     auto listed = session_listed(session);
     if (!listed) return listed.error();
     if (!listed.value()) return missing;
-    int fd = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-    for (std::size_t i = 0; i < parts.size() && fd >= 0; ++i) {
-      const int flags = O_RDONLY | O_NOFOLLOW | O_CLOEXEC | (i + 1 < parts.size() ? O_DIRECTORY : 0);
-      const int next = ::openat(fd, parts[i].c_str(), flags);
-      ::close(fd);
-      fd = next;
-    }
     struct stat st {};
-    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || static_cast<std::size_t>(st.st_size) > max_bytes) {
-      if (fd >= 0) ::close(fd);
+    const int fd = open_regular_below(options.sessions_dir / session, parts, st);
+    if (fd < 0) return missing;
+    if (static_cast<std::size_t>(st.st_size) > max_bytes) {
+      ::close(fd);
       return missing;
     }
     std::string text(static_cast<std::size_t>(st.st_size), '\0');
