@@ -51,12 +51,7 @@ int main() {
   for (double noise : {0.0, 1.0}) {
     opt.noise_codes = noise;
     const auto b = make_synthetic_bracket(response, opt);
-    std::vector<cv::Mat> images;
-    std::vector<float> times;
-    for (const auto& f : b.frames) {
-      images.push_back(f.image);
-      times.push_back(static_cast<float>(f.exposure_s));
-    }
+    const OpenCvBracket cv_bracket = opencv_bracket(b);
     const char* stack = noise > 0 ? "noisy" : "clean";
     for (int nthreads : {threads, 1}) {
       if (nthreads == 1 && threads == 1) continue;
@@ -68,7 +63,8 @@ int main() {
       HdrImage ours;
       const double t_ours = median_seconds(7, [&] { ours = *merge_hdr(b.frames, response); });
       cv::Mat theirs;
-      const double t_cv = median_seconds(5, [&] { merge_debevec->process(images, theirs, times, crf); });
+      const double t_cv =
+          median_seconds(5, [&] { merge_debevec->process(cv_bracket.images, theirs, cv_bracket.times_s, crf); });
       row("vdrig merge_hdr", t_ours, merge_errors(b, ours.radiance));
       row("cv::MergeDebevec", t_cv, merge_errors(b, theirs));
     }

@@ -96,4 +96,13 @@ cv::Mat opencv_crf(const ResponseCurve& response) {
   return crf;
 }
 
+OpenCvBracket opencv_bracket(const SyntheticBracket& bracket) {
+  OpenCvBracket out;
+  for (const auto& f : bracket.frames) {
+    out.images.push_back(f.image);
+    out.times_s.push_back(static_cast<float>(f.exposure_s));
+  }
+  return out;
+}
+
 }  // namespace vdrig::calib

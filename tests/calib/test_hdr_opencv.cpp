@@ -26,16 +26,11 @@ TEST(HdrAgainstOpenCv, MergeIsMoreAccurateThanMergeDebevec) {
     SyntheticBracketOptions opt;
     opt.noise_codes = noise;
     const auto b = make_synthetic_bracket(response, opt);
-    std::vector<cv::Mat> images;
-    std::vector<float> times;
-    for (const auto& f : b.frames) {
-      images.push_back(f.image);
-      times.push_back(static_cast<float>(f.exposure_s));
-    }
+    const OpenCvBracket cv_bracket = opencv_bracket(b);
     auto ours = merge_hdr(b.frames, response);
     ASSERT_TRUE(ours) << ours.error().describe();
     cv::Mat theirs;
-    debevec->process(images, theirs, times, crf);
+    debevec->process(cv_bracket.images, theirs, cv_bracket.times_s, crf);
     const double e_ours = merge_errors(b, ours->radiance).median, e_cv = merge_errors(b, theirs).median;
     std::printf("noise %.0f code(s): median relative error vdrig %.3f %%, cv::MergeDebevec %.3f %%\n", noise,
                 100 * e_ours, 100 * e_cv);

@@ -48,4 +48,11 @@ MergeErrors merge_errors(const SyntheticBracket& bracket, const cv::Mat& merged)
 /// the true curve) gets the exposure of half a code instead of -inf.
 cv::Mat opencv_crf(const ResponseCurve& response);
 
+/// The bracket's frames as OpenCV's HDR merges take them: the images and their exposure times (seconds, as float).
+struct OpenCvBracket {
+  std::vector<cv::Mat> images;
+  std::vector<float> times_s;
+};
+OpenCvBracket opencv_bracket(const SyntheticBracket& bracket);
+
 }  // namespace vdrig::calib
