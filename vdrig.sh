@@ -15,7 +15,7 @@ jobs=$(nproc)
 # ccache: paths relative to this clone, so a fresh clone (CI) hits the cache an earlier clone filled.
 export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
 
-setup() { bash scripts/setup; }
+setup() { bash scripts/setup "$@"; }  # --tests: the npm packages the tests run are required (scripts/setup)
 
 configure_and_build() {  # $1 = preset, then the targets to build (none: all of them)
   local preset=$1
@@ -134,7 +134,7 @@ case "$verb" in
     echo "./vdrig.sh demo: ${SECONDS} s in all (setup, build and the demo)"
     ;;
   test)
-    setup
+    setup --tests
     # Every test runs under a display here (Xvfb when there is none): an OpenGL test that finds no context fails
     # instead of skipping (tests/common/vdrig/test/require_gl.hpp).
     export VDRIG_REQUIRE_GL=1

@@ -19,37 +19,6 @@ using namespace vdrig::calib;
 
 namespace {
 
-struct Errors {
-  double median = 0, p95 = 0, median_long_clipped = 0;
-};
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
-
-// `merged`: CV_32FC3 in the same channel order as the frames.
-Errors errors(const SyntheticBracket& b, const cv::Mat& merged) {
-  std::vector<double> all, long_clipped;
-  for (int y = 0; y < merged.rows; ++y)
-    for (int x = 0; x < merged.cols; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const double truth = b.radiance.ptr<float>(y)[3 * x + c];
-        bool unclipped = false;
-        for (const auto& f : b.frames) {
-          const int z = f.image.ptr<uint8_t>(y)[3 * x + c];
-          unclipped = unclipped || (z > 0 && z < 255);
-        }
-        if (truth <= 0 || !unclipped) continue;
-        const double e = std::abs(merged.ptr<float>(y)[3 * x + c] / truth - 1.0);
-        all.push_back(e);
-        if (b.frames.back().image.ptr<uint8_t>(y)[3 * x + c] == 255) long_clipped.push_back(e);
-      }
-  return {percentile(all, 0.5), percentile(all, 0.95), percentile(long_clipped, 0.5)};
-}
-
 template <typename F>
 double median_seconds(int reps, F&& f) {
   std::vector<double> t;
@@ -58,7 +27,8 @@ double median_seconds(int reps, F&& f) {
     f();
     t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
-  return percentile(t, 0.5);
+  std::nth_element(t.begin(), t.begin() + reps / 2, t.end());
+  return t[reps / 2];
 }
 
 }  // namespace
@@ -69,13 +39,7 @@ int main() {
   opt.width = 1024;
   opt.height = 768;
 
-  // OpenCV's CRF: code -> exposure X, 256x1 CV_32FC3. It takes log(CRF), so code 0 (X = 0 in the true curve) gets
-  // the exposure of half a code instead of -inf.
-  cv::Mat crf(256, 1, CV_32FC3);
-  for (int z = 0; z < 256; ++z)
-    for (int c = 0; c < 3; ++c)
-      crf.at<cv::Vec3f>(z)[c] =  // OpenCV's CRF follows the image's B, G, R; ResponseCurve is R, G, B
-          static_cast<float>(z == 0 ? response.inverse(2 - c, 0.5) : response.inverse(2 - c, z));
+  const cv::Mat crf = opencv_crf(response);  // the true response, as OpenCV takes it
   auto merge_debevec = cv::createMergeDebevec();
 
   const int threads = cv::getNumThreads();
@@ -87,26 +51,22 @@ int main() {
   for (double noise : {0.0, 1.0}) {
     opt.noise_codes = noise;
     const auto b = make_synthetic_bracket(response, opt);
-    std::vector<cv::Mat> images;
-    std::vector<float> times;
-    for (const auto& f : b.frames) {
-      images.push_back(f.image);
-      times.push_back(static_cast<float>(f.exposure_s));
-    }
+    const OpenCvBracket cv_bracket = opencv_bracket(b);
     const char* stack = noise > 0 ? "noisy" : "clean";
     for (int nthreads : {threads, 1}) {
       if (nthreads == 1 && threads == 1) continue;
       cv::setNumThreads(nthreads);
-      const auto row = [&](const char* method, double seconds, const Errors& e) {
+      const auto row = [&](const char* method, double seconds, const MergeErrors& e) {
         std::printf("%-8s %-22s %9d %10.2f %10.1f %11.3f%% %8.2f%% / %.2f%%\n", stack, method, nthreads, 1e3 * seconds,
                     mpix / seconds, 100 * e.median, 100 * e.p95, 100 * e.median_long_clipped);
       };
       HdrImage ours;
       const double t_ours = median_seconds(7, [&] { ours = *merge_hdr(b.frames, response); });
       cv::Mat theirs;
-      const double t_cv = median_seconds(5, [&] { merge_debevec->process(images, theirs, times, crf); });
-      row("vdrig merge_hdr", t_ours, errors(b, ours.radiance));
-      row("cv::MergeDebevec", t_cv, errors(b, theirs));
+      const double t_cv =
+          median_seconds(5, [&] { merge_debevec->process(cv_bracket.images, theirs, cv_bracket.times_s, crf); });
+      row("vdrig merge_hdr", t_ours, merge_errors(b, ours.radiance));
+      row("cv::MergeDebevec", t_cv, merge_errors(b, theirs));
     }
     cv::setNumThreads(threads);
   }

@@ -1,5 +1,6 @@
 #include "vdrig/calib/synthetic.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <opencv2/core/utility.hpp>
@@ -53,6 +54,53 @@ SyntheticBracket make_synthetic_bracket(const ResponseCurve& response, const Syn
       }
     });
     out.frames.push_back(std::move(f));
+  }
+  return out;
+}
+
+namespace {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+MergeErrors merge_errors(const SyntheticBracket& b, const cv::Mat& merged) {
+  std::vector<double> all, long_clipped;
+  for (int y = 0; y < merged.rows; ++y)
+    for (int x = 0; x < merged.cols; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double truth = b.radiance.ptr<float>(y)[3 * x + c];
+        bool unclipped = false;
+        for (const auto& f : b.frames) {
+          const int z = f.image.ptr<uint8_t>(y)[3 * x + c];
+          unclipped = unclipped || (z > 0 && z < 255);
+        }
+        if (truth <= 0 || !unclipped) continue;
+        const double e = std::abs(merged.ptr<float>(y)[3 * x + c] / truth - 1.0);
+        all.push_back(e);
+        if (b.frames.back().image.ptr<uint8_t>(y)[3 * x + c] == 255) long_clipped.push_back(e);
+      }
+  return {percentile(all, 0.5), percentile(all, 0.95), percentile(long_clipped, 0.5)};
+}
+
+cv::Mat opencv_crf(const ResponseCurve& response) {
+  cv::Mat crf(256, 1, CV_32FC3);
+  for (int z = 0; z < 256; ++z)
+    for (int c = 0; c < 3; ++c)
+      crf.at<cv::Vec3f>(z)[c] = static_cast<float>(z == 0 ? response.inverse(2 - c, 0.5) : response.inverse(2 - c, z));
+  return crf;
+}
+
+OpenCvBracket opencv_bracket(const SyntheticBracket& bracket) {
+  OpenCvBracket out;
+  for (const auto& f : bracket.frames) {
+    out.images.push_back(f.image);
+    out.times_s.push_back(static_cast<float>(f.exposure_s));
   }
   return out;
 }

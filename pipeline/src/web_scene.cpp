@@ -9,6 +9,7 @@
 
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/capture/session.hpp"
+#include "vdrig/core/open_below.hpp"
 #include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
 #include "vdrig/pipeline/geometry_stage.hpp"
@@ -21,7 +22,7 @@ using nlohmann::json;
 
 namespace {
 
-/// A regular file below a session folder, opened as the console opens its other session files (web/src/server.cpp):
+/// A regular file below a session folder, opened as the console opens its other session files (open_regular_below):
 /// one path component at a time from the session folder with O_NOFOLLOW, so that a link anywhere below the folder
 /// (a linked maps/, hdr/ or obsmap/ folder, or a linked file) is refused, not followed. The readers take a path:
 /// they get /proc/self/fd/N, which names the file already opened, not a path resolved again (no race with a link
@@ -33,20 +34,11 @@ class OpenedBelow {
                                                                " in " + session_dir.filename().string());
     const fs::path relative = file.lexically_relative(session_dir);
     if (relative.empty() || *relative.begin() == "..") return missing;
-    int fd = ::open(session_dir.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     std::vector<std::string> parts;
     for (const auto& p : relative) parts.push_back(p.string());
-    for (std::size_t i = 0; i < parts.size() && fd >= 0; ++i) {
-      const int flags = O_RDONLY | O_NOFOLLOW | O_CLOEXEC | (i + 1 < parts.size() ? O_DIRECTORY : 0);
-      const int next = ::openat(fd, parts[i].c_str(), flags);
-      ::close(fd);
-      fd = next;
-    }
     struct stat st {};
-    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-      if (fd >= 0) ::close(fd);
-      return missing;
-    }
+    const int fd = open_regular_below(session_dir, parts, st);
+    if (fd < 0) return missing;
     return OpenedBelow(fd);
   }
   OpenedBelow(OpenedBelow&& o) noexcept : fd_(std::exchange(o.fd_, -1)) {}
@@ -128,7 +120,7 @@ Result<WebScene> web_scene(const fs::path& session_dir, const std::string& map_n
   out.scene = {{"map", name},
                {"maps", maps},
                {"model", map->model().name()},
-               {"glsl", viewer::model_glsl(map.value())},
+               {"glsl", viewer::surface_glsl(map.value())},
                {"texels", {map->texels_s(), map->texels_t()}},
                {"size_mm", {map->width_mm(), map->height_mm()}},
                {"layers", layers},

@@ -6,7 +6,7 @@
 
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/adaptive.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/schemes.hpp"
@@ -31,13 +31,7 @@ class ScriptedPlanner final : public ViewPlanner {
 
 struct Daemonised {
   explicit Daemonised(const fs::path& root) {
-    DaemonConfig config;
-    config.runtime_dir = root / "run";
-    config.sessions_dir = root / "sessions";
-    config.rig_config = testing::small_sim_config();
-    config.make_rig = [](const json& rc) { return testing::make_sim_rig(rc); };
-    config.capture.disk_reserve_bytes = 0;
-    daemon = std::make_unique<Daemon>(config);
+    daemon = std::make_unique<Daemon>(testing::sim_daemon_config(root));
     EXPECT_TRUE(daemon->start());
     thread = std::thread([this] { loop = daemon->run(); });
   }

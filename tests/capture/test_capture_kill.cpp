@@ -11,10 +11,11 @@
 #include <random>
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/test/kill_when_grown.hpp"
 
 namespace vdrig::capture {
 namespace {
@@ -26,17 +27,8 @@ using testing::small_sim_config;
 
 fs::path create_session(const std::string& name, const std::string& scheme, const std::string& bracket) {
   const fs::path dir = test::fresh_temp_dir("kill_" + name);
-  auto rig = make_sim_rig(small_sim_config());
-  EXPECT_TRUE(rig) << rig.error().describe();
-  PlanRequest req;
-  req.rig_config = small_sim_config();
-  req.scheme = scheme;
-  req.bracket = bracket;
-  req.stage = rig->stage->spec();
-  auto manifest = plan_manifest(req);
+  auto manifest = testing::create_sim_session(dir, small_sim_config(), scheme, bracket);
   EXPECT_TRUE(manifest) << manifest.error().describe();
-  auto session = Session::create(dir, manifest.value());
-  EXPECT_TRUE(session) << session.error().describe();
   return dir;
 }
 
@@ -98,33 +90,13 @@ TEST(CaptureKill, SigkillAtRandomMomentsLosesNothing) {
   for (int round = 0; round < 20; ++round) {
     const std::uintmax_t start_size = fs::file_size(SessionLayout(dir).journal_file());
     const std::uintmax_t target = start_size + grow_bytes(rng);
-    const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-      const Status s = resume(dir);
-      ::_exit(s ? 0 : 3);
-    }
-    int status = 0;
-    bool exited = false;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (std::chrono::steady_clock::now() < deadline) {
-      std::error_code ec;
-      if (fs::file_size(SessionLayout(dir).journal_file(), ec) >= target) break;
-      if (::waitpid(pid, &status, WNOHANG) == pid) {
-        exited = true;
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-    }
-    if (!exited) {
-      std::this_thread::sleep_for(std::chrono::microseconds(extra_us(rng)));
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-    }
-    if (WIFSIGNALED(status))
+    const auto status = test::kill_when_grown([&] { return resume(dir); }, SessionLayout(dir).journal_file(), target,
+                                              [&] { return extra_us(rng); }, std::chrono::seconds(10));
+    ASSERT_TRUE(status) << "fork failed";
+    if (WIFSIGNALED(*status))
       ++killed_mid_run;
     else
-      ASSERT_EQ(WEXITSTATUS(status), 0) << "child failed before the kill";
+      ASSERT_EQ(WEXITSTATUS(*status), 0) << "child failed before the kill";
   }
   auto partial = Session::open(dir);
   ASSERT_TRUE(partial) << partial.error().describe();

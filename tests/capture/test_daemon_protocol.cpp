@@ -21,7 +21,7 @@
 #include <set>
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/daemon.hpp"
 
 namespace vdrig::capture {
@@ -40,12 +40,7 @@ class DaemonFixture : public ::testing::Test {
 
   /// Starts the in-process daemon on root_; `tweak` adjusts the config first (e.g. the allowed peers).
   void start_daemon(const std::function<void(DaemonConfig&)>& tweak = {}) {
-    DaemonConfig config;
-    config.runtime_dir = root_ / "run";
-    config.sessions_dir = root_ / "sessions";
-    config.rig_config = testing::small_sim_config();
-    config.make_rig = [](const json& rc) { return testing::make_sim_rig(rc); };
-    config.capture.disk_reserve_bytes = 0;
+    DaemonConfig config = testing::sim_daemon_config(root_);
     if (tweak) tweak(config);
     daemon_ = std::make_unique<Daemon>(config);
     const Status s = daemon_->start();

@@ -7,7 +7,7 @@
 
 #include <fstream>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/plan.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/capture/session_check.hpp"
@@ -161,17 +161,8 @@ class SessionCheckCli : public ::testing::Test {
   void SetUp() override {
     cli_ = testing::vdrig_cli();
     ASSERT_FALSE(cli_.empty());
-    const json rig_config = testing::small_sim_config();
-    auto rig = testing::make_sim_rig(rig_config);
-    ASSERT_TRUE(rig) << rig.error().describe();
-    PlanRequest req;
-    req.rig_config = rig_config;
-    req.scheme = "latlong:2";
-    req.bracket = "fixed:0.01";
-    req.stage = rig->stage->spec();
-    auto manifest = plan_manifest(req);
+    auto manifest = testing::create_sim_session(dir_, testing::small_sim_config());
     ASSERT_TRUE(manifest) << manifest.error().describe();
-    ASSERT_TRUE(Session::create(dir_, manifest.value()));
     views_ = static_cast<int>(manifest->views.size());
     ASSERT_GE(views_, 2);
     const auto r = run({"capture", "--resume", dir_.string(), "--reserve-mb", "0"});

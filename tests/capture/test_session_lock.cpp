@@ -10,7 +10,7 @@
 #include <functional>
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/capture.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
@@ -23,18 +23,9 @@ using nlohmann::json;
 
 /// A small planned session (no views captured) in `dir`; returns its view count.
 int create_session(const fs::path& dir, const json& rig_config) {
-  auto rig = testing::make_sim_rig(rig_config);
-  EXPECT_TRUE(rig) << rig.error().describe();
-  PlanRequest req;
-  req.rig_config = rig_config;
-  req.scheme = "latlong:2";
-  req.bracket = "fixed:0.01";
-  req.stage = rig->stage->spec();
-  auto manifest = plan_manifest(req);
+  auto manifest = testing::create_sim_session(dir, rig_config);
   EXPECT_TRUE(manifest) << manifest.error().describe();
-  auto session = Session::create(dir, manifest.value());
-  EXPECT_TRUE(session) << session.error().describe();
-  return static_cast<int>(manifest->views.size());
+  return manifest ? static_cast<int>(manifest->views.size()) : 0;
 }
 
 /// Forks a child that holds the lock `take` returns until it is killed; its PID (-1 if it could not take it).
@@ -135,13 +126,7 @@ TEST(SessionLock, CliResumeIsRefusedWhileAnotherProcessCapturesAndRunsOnceTheHol
 TEST(SessionLock, DaemonResumeIsRefusedWhileAnotherProcessCaptures) {
   vdrig::test::TempDir root("lock_daemon");
   const int views = create_session(root.path() / "sessions" / "S", testing::small_sim_config());
-  DaemonConfig config;
-  config.runtime_dir = root.path() / "run";
-  config.sessions_dir = root.path() / "sessions";
-  config.rig_config = testing::small_sim_config();
-  config.make_rig = [](const json& rc) { return testing::make_sim_rig(rc); };
-  config.capture.disk_reserve_bytes = 0;
-  Daemon daemon(config);
+  Daemon daemon(testing::sim_daemon_config(root.path()));
   ASSERT_TRUE(daemon.start());
   Status loop;
   std::thread thread([&] { loop = daemon.run(); });

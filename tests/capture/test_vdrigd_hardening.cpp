@@ -11,7 +11,7 @@
 #include <chrono>
 #include <thread>
 
-#include "test_support.hpp"
+#include "sim_session.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/plan.hpp"
 
@@ -21,26 +21,11 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-DaemonConfig config_in(const fs::path& root) {
-  DaemonConfig config;
-  config.runtime_dir = root / "run";
-  config.sessions_dir = root / "sessions";
-  config.rig_config = testing::small_sim_config();
-  config.make_rig = [](const json& rc) { return testing::make_sim_rig(rc); };
-  config.capture.disk_reserve_bytes = 0;
-  return config;
-}
+using testing::sim_daemon_config;
 
 /// A plan on the small simulated rig (no session written).
 Manifest small_plan(const std::string& scheme) {
-  auto rig = testing::make_sim_rig(testing::small_sim_config());
-  EXPECT_TRUE(rig) << rig.error().describe();
-  PlanRequest plan;
-  plan.rig_config = testing::small_sim_config();
-  plan.scheme = scheme;
-  plan.bracket = "fixed:0.01";
-  plan.stage = rig->stage->spec();
-  auto manifest = plan_manifest(plan);
+  auto manifest = testing::plan_sim(testing::small_sim_config(), scheme);
   EXPECT_TRUE(manifest) << manifest.error().describe();
   return manifest.value();
 }
@@ -70,14 +55,14 @@ TEST(VdrigdRuntimeDir, AnExistingSharedFolderKeepsItsModeAndACreatedOneIs0770) {
   fs::create_directories(root.path() / "run");
   ASSERT_EQ(::chmod((root.path() / "run").c_str(), 01777), 0);
   {
-    Running d(config_in(root.path()));
+    Running d(sim_daemon_config(root.path()));
     ASSERT_TRUE(d.started()) << d.started().describe();
     struct stat st {};
     ASSERT_EQ(::stat((root.path() / "run").c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 07777, 01777u) << "vdrigd changed the mode of a folder it did not create";
   }
   vdrig::test::TempDir fresh("rt_fresh");
-  Running d(config_in(fresh.path()));
+  Running d(sim_daemon_config(fresh.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
   struct stat st {};
   ASSERT_EQ(::stat((fresh.path() / "run").c_str(), &st), 0);
@@ -88,7 +73,7 @@ TEST(VdrigdRuntimeDir, ARegularFileAtTheSocketPathIsRefusedAndKept) {
   vdrig::test::TempDir root("rt_file");
   fs::create_directories(root.path() / "run");
   testing::write_text(root.path() / "run" / "vdrigd.sock", "not a socket\n");
-  Daemon daemon(config_in(root.path()));
+  Daemon daemon(sim_daemon_config(root.path()));
   const Status s = daemon.start();
   ASSERT_FALSE(s) << "vdrigd started over a regular file";
   EXPECT_NE(s.error().message.find("not a socket"), std::string::npos) << s.describe();
@@ -107,7 +92,7 @@ TEST(VdrigdRuntimeDir, AStaleSocketIsReplaced) {
     ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
     ::close(fd);
   }
-  Running d(config_in(root.path()));
+  Running d(sim_daemon_config(root.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
   const int fd = testing::connect_unix(d.daemon().socket_path());
   ASSERT_GE(fd, 0);
@@ -147,7 +132,7 @@ TEST(VdrigdFairness, OnePipeliningClientDoesNotHoldUpAnother) {
   for (int i = 0; i < 10; ++i)
     ASSERT_TRUE(Session::create(root.path() / "sessions" / ("s" + std::to_string(i)), manifest));
 
-  Running d(config_in(root.path()));
+  Running d(sim_daemon_config(root.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
   const int greedy = testing::connect_unix(d.daemon().socket_path());
   const int other = testing::connect_unix(d.daemon().socket_path());
@@ -199,7 +184,7 @@ TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
   testing::write_text(SessionLayout(sessions / "bad_type").journal_file(),
                       "{\"type\":\"view_complete\",\"view\":[0]}\n");
 
-  Running d(config_in(root.path()));
+  Running d(sim_daemon_config(root.path()));
   ASSERT_TRUE(d.started()) << d.started().describe();
   const int fd = testing::connect_unix(d.daemon().socket_path());
   ASSERT_GE(fd, 0);
@@ -222,7 +207,7 @@ TEST(VdrigdListSessions, ADamagedSessionIsListedAsDamagedAndTheOthersStillAre) {
 
 TEST(VdrigdRefusal, ARefusedClientIsToldWhy) {
   vdrig::test::TempDir root("refused");
-  DaemonConfig config = config_in(root.path());
+  DaemonConfig config = sim_daemon_config(root.path());
   config.allowed_uid = ::geteuid() + 4242;
   config.allowed_gid = ::getegid() + 4242;
   Running d(config);
@@ -248,7 +233,7 @@ json first_reply(int fd, int timeout_ms = 5000) {
 // told so and closed (freeing its place), a subscribed watcher is not, and the CLI says what happened.
 TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
   vdrig::test::TempDir root("idle");
-  DaemonConfig config = config_in(root.path());
+  DaemonConfig config = sim_daemon_config(root.path());
   config.max_clients = 8;
   config.max_clients_per_uid = 3;
   // Long enough for the refused CLI below to start and connect while the idle ones still hold their slots: a loaded
@@ -300,7 +285,7 @@ TEST(VdrigdConnections, IdleSocketsCannotLockEveryoneOut) {
 }
 
 TEST(VdrigdConnections, LimitsAreValidated) {
-  DaemonConfig config = config_in("/tmp/unused");
+  DaemonConfig config = sim_daemon_config("/tmp/unused");
   std::string why;
   config.max_clients_per_uid = 0;
   EXPECT_FALSE(config.is_valid(&why));

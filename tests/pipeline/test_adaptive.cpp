@@ -19,6 +19,7 @@
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/pipeline/adaptive_stage.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/kill_when_grown.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::pipeline {
@@ -260,30 +261,13 @@ TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
   int kills = 0;
   for (int round = 0; round < 40; ++round) {
     const std::uintmax_t target = fs::file_size(journal) + grow(rng);
-    const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) ::_exit(run(dir) ? 0 : 3);
-    int status = 0;
-    bool exited = false;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (std::chrono::steady_clock::now() < deadline) {
-      std::error_code ec;
-      if (fs::file_size(journal, ec) >= target) break;
-      if (::waitpid(pid, &status, WNOHANG) == pid) {
-        exited = true;
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-    }
-    if (!exited) {
-      std::this_thread::sleep_for(std::chrono::microseconds(extra_us(rng)));
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-    }
-    if (WIFSIGNALED(status)) {
+    const auto status = vdrig::test::kill_when_grown([&] { return run(dir); }, journal, target,
+                                                     [&] { return extra_us(rng); }, std::chrono::seconds(20));
+    ASSERT_TRUE(status) << "fork failed";
+    if (WIFSIGNALED(*status)) {
       ++kills;
     } else {
-      ASSERT_EQ(WEXITSTATUS(status), 0);
+      ASSERT_EQ(WEXITSTATUS(*status), 0);
       auto after = capture::Session::open(dir);
       ASSERT_TRUE(after);
       if (capture::adaptive_progress(after.value()).stopped) break;

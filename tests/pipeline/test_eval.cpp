@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "truth_map.hpp"
 #include "vdrig/fitting/phong_model.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
@@ -21,20 +22,7 @@
 namespace vdrig::pipeline {
 namespace {
 
-// A phong:1 map of `scene` whose texels are the truth at their centres, with Kd scaled by kd_scale.
-fitting::ParameterMap truth_map(const sim::Scene& scene, int texels, double kd_scale) {
-  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), texels, texels, scene.width_mm, scene.height_mm);
-  for (int t = 0; t < texels; ++t)
-    for (int s = 0; s < texels; ++s) {
-      const auto truth = scene.phong_truth(texel_centre_mm(s, t, texels, texels, scene.width_mm, scene.height_mm));
-      if (!truth) continue;
-      fitting::PhongParams p;
-      p.kd = truth->kd * kd_scale;
-      p.lobes = {{truth->ks, truth->mirror_dir, truth->shininess}};
-      fitting::set_phong_texel(map, s, t, p);
-    }
-  return map;
-}
+using vdrig::test::phong_truth_map;  // the truth at the texel centres, Kd scaled
 
 const MaterialEval& row(const EvalReport& report, const std::string& name) {
   for (const auto& m : report.materials)
@@ -47,7 +35,7 @@ TEST(Eval, TheTruthItselfScoresZero) {
   const sim::Scene scene = sim::make_scene("patchwork").value();
   EvalOptions options;
   options.dense_directions = 300;
-  const auto report = evaluate_map(truth_map(scene, 40, 1.0), scene, options);
+  const auto report = evaluate_map(phong_truth_map(scene, 40, 1.0), scene, options);
   ASSERT_TRUE(report.is_ok()) << report.error().message;
   ASSERT_FALSE(report->materials.empty());
   for (const auto& m : report->materials) {
@@ -60,7 +48,7 @@ TEST(Eval, TheTruthItselfScoresZero) {
 
 TEST(Eval, KdScaledByTenPercentGivesTenPercentOnDiffuseTexels) {
   const sim::Scene scene = sim::make_scene("patchwork").value();
-  const auto report = evaluate_map(truth_map(scene, 50, 1.1), scene, EvalOptions{});
+  const auto report = evaluate_map(phong_truth_map(scene, 50, 1.1), scene, EvalOptions{});
   ASSERT_TRUE(report.is_ok()) << report.error().message;
   EXPECT_EQ(report->dense_directions, 1000);
   const MaterialEval& cloth = row(*report, "red cloth");  // Lambertian
@@ -135,7 +123,7 @@ TEST(Eval, OverTheDirectionsASessionSampled) {
   EvalOptions options;
   options.dense_directions = 200;
   options.session_dir = req.out_dir;
-  const auto report = evaluate_map(truth_map(scene, 20, 1.1), scene, options);
+  const auto report = evaluate_map(phong_truth_map(scene, 20, 1.1), scene, options);
   ASSERT_TRUE(report.is_ok()) << report.error().message;
   EXPECT_EQ(report->session_views, session->completed_view_count());
   EXPECT_GE(report->error_map.find("rel_rms.session"), 0);
@@ -150,7 +138,7 @@ TEST(Eval, OverTheDirectionsASessionSampled) {
   EXPECT_NE(report->table().find("sess.mean"), std::string::npos);
 
   options.session_dir = dir.path() / "no such session";
-  EXPECT_FALSE(evaluate_map(truth_map(scene, 4, 1.0), scene, options).is_ok());
+  EXPECT_FALSE(evaluate_map(phong_truth_map(scene, 4, 1.0), scene, options).is_ok());
 }
 
 // `vdrig eval --scene bands` on a map fitted from a patchwork session measures the scenes' difference: the report
@@ -165,7 +153,7 @@ TEST(Eval, WarnsWhenTheMapWasFittedFromAnotherScene) {
   req.exposures_s = {0.25};
   ASSERT_TRUE(capture_session(req));
   const sim::Scene patchwork = sim::make_scene("patchwork").value(), bands = sim::make_scene("bands").value();
-  fitting::ParameterMap map = truth_map(patchwork, 8, 1.0);
+  fitting::ParameterMap map = phong_truth_map(patchwork, 8, 1.0);
   map.set_source_session(req.out_dir.string());
   EvalOptions options;
   options.dense_directions = 50;
@@ -220,7 +208,7 @@ TEST(Eval, TableColumnsNeverRunTogether) {
 TEST(Eval, GgxTruthIsModelMismatchForAPhongMap) {
   // The same map against a scene whose glossy patch became GGX: the Phong truth map no longer matches there.
   sim::Scene scene = sim::make_scene("patchwork").value();
-  const fitting::ParameterMap map = truth_map(scene, 40, 1.0);
+  const fitting::ParameterMap map = phong_truth_map(scene, 40, 1.0);
   scene.materials[2].kind = sim::MaterialKind::kGgx;
   scene.materials[2].roughness = 0.2;
   scene.materials[2].f0 = Vec3d::Constant(0.5);

@@ -30,10 +30,8 @@ using namespace gltf_views;
 TEST(GltfThree, RendersTheExportLikeTheFitAndThePhotographs) {
   const std::string chromium = test::find_chromium();
   const fs::path folder = fs::path(VDRIG_SOURCE_DIR) / "tests" / "gltf";
-  if (chromium.empty()) GTEST_SKIP() << "no chromium (scripts/setup installs it)";
-  if (!fs::exists("/usr/bin/node") || !fs::exists(folder / "node_modules" / "three" / "package.json") ||
-      !fs::exists(folder / "node_modules" / "puppeteer-core" / "package.json"))
-    GTEST_SKIP() << "node or tests/gltf's node_modules missing (scripts/setup: npm ci in tests/gltf)";
+  if (const std::string why = test::node_browser_test_unavailable(folder, {"three", "puppeteer-core"}); !why.empty())
+    GTEST_SKIP() << why;
 
   const FittedSample sample = fit_bumped_plastic();
   ASSERT_TRUE(sample.map);

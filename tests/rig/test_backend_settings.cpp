@@ -12,6 +12,7 @@
 #include "vdrig/core/settings.hpp"
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/registry.hpp"
+#include "vdrig/test/instant_stage.hpp"
 
 namespace vdrig::rig {
 namespace {
@@ -24,23 +25,9 @@ std::string joined(const std::vector<std::string>& problems) {
 }
 
 /// A stage that stands wherever it is told, at once, with the speed profile it is given.
-class InstantStage final : public PanTiltStage {
- public:
-  explicit InstantStage(StageSpec spec) : spec_(spec) {}
-  std::string backend() const override { return "test-stage"; }
-  StageSpec spec() const override { return spec_; }
-  Status home() override { return move_to({}); }
-  Status move_to(const PanTilt& target) override {
-    at_ = target;
-    return Status::ok();
-  }
-  Result<PanTilt> position() override { return at_; }
-  Status stop() override { return Status::ok(); }
-
- private:
-  StageSpec spec_;
-  PanTilt at_;
-};
+std::unique_ptr<PanTiltStage> instant_stage(const StageSpec& spec) {
+  return std::make_unique<test::InstantStage>("test-stage", spec);
+}
 
 /// A camera whose picture brightens with the exposure (so the self-test's bracket passes).
 class RampCamera final : public Camera {
@@ -90,7 +77,7 @@ struct TestBackends {
                          auto config = TestStageConfig::parse(section);
                          if (!config) return config.error();
                          ++stages_built;
-                         return std::unique_ptr<PanTiltStage>(std::make_unique<InstantStage>(StageSpec{}));
+                         return instant_stage(StageSpec{});
                        },
                        {.check = settings_check(TestStageConfig::parse)});
     registry.add_camera("test-camera",
@@ -197,7 +184,7 @@ TEST(SelfTest, AnInstantStagePassesOnlyWhenItsSpecSaysItIsFast) {
   // The self-test times each move against the profile of the stage's spec: a move much faster than the profile
   // means the drive did not get the speeds sent. A stand-in stage that moves at once must say so in its spec.
   AxisSpec slow_axis{-3.2, 3.2, 0.5, 1.0, false};  // 29 deg/s: a 5 deg move takes ~0.4 s
-  Rig slow{std::make_unique<InstantStage>(StageSpec{slow_axis, slow_axis}), std::make_unique<RampCamera>(), nullptr};
+  Rig slow{instant_stage(StageSpec{slow_axis, slow_axis}), std::make_unique<RampCamera>(), nullptr};
   auto steps = run_self_test(slow);
   const auto failed = std::find_if(steps.begin(), steps.end(), [](const SelfTestStep& s) { return !s.passed; });
   ASSERT_NE(failed, steps.end()) << "an instant stage passed against a 29 deg/s profile";
@@ -205,7 +192,7 @@ TEST(SelfTest, AnInstantStagePassesOnlyWhenItsSpecSaysItIsFast) {
   EXPECT_NE(failed->detail.find("much faster than the configured profile"), std::string::npos) << failed->detail;
 
   AxisSpec fast_axis{-3.2, 3.2, 1e6, 1e9, false};
-  Rig fast{std::make_unique<InstantStage>(StageSpec{fast_axis, fast_axis}), std::make_unique<RampCamera>(), nullptr};
+  Rig fast{instant_stage(StageSpec{fast_axis, fast_axis}), std::make_unique<RampCamera>(), nullptr};
   steps = run_self_test(fast);
   for (const auto& s : steps) EXPECT_TRUE(s.passed) << s.name << ": " << s.detail;
 }

@@ -10,6 +10,7 @@
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/instant_stage.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::sim {
@@ -217,31 +218,16 @@ TEST(SimCamera, AnImperfectRigReportsReadingsAndShowsTheTrueAngles) {
   EXPECT_GT(cv::norm(frame->image, render(pt), cv::NORM_INF), 100.0);
 }
 
-/// A stage of another backend: stands wherever it is told, instantly.
-class OtherStage final : public rig::PanTiltStage {
- public:
-  std::string backend() const override { return "other"; }
-  rig::StageSpec spec() const override { return SimConfig().stage; }
-  Status home() override { return move_to({}); }
-  Status move_to(const PanTilt& target) override {
-    at_ = target;
-    return Status::ok();
-  }
-  Result<PanTilt> position() override { return at_; }
-  Status stop() override { return Status::ok(); }
-
- private:
-  PanTilt at_;
-};
-
 TEST(SimCamera, PairedWithAnotherStageItRendersThePoseThatStageReports) {
   rig::BackendRegistry registry;
   register_backends(registry);
-  registry.add_stage("other",
-                     [](const json&, rig::RigContext&) -> Result<std::unique_ptr<rig::PanTiltStage>> {
-                       return std::unique_ptr<rig::PanTiltStage>(std::make_unique<OtherStage>());
-                     },
-                     {.check = [](const json& section) -> Result<json> { return section; }});
+  // A stage of another backend: stands wherever it is told, instantly.
+  registry.add_stage(
+      "other",
+      [](const json&, rig::RigContext&) -> Result<std::unique_ptr<rig::PanTiltStage>> {
+        return std::unique_ptr<rig::PanTiltStage>(std::make_unique<test::InstantStage>("other", SimConfig().stage));
+      },
+      {.check = [](const json& section) -> Result<json> { return section; }});
   const json section = small_sim(
       {{"camera", {{"width", 64}, {"height", 48}, {"fx", 40.0}, {"fy", 40.0}, {"response", "linear"}, {"bits", 12}}}});
   auto r = registry.make_rig({{"stage", {{"backend", "other"}}}, {"camera", {{"backend", "sim"}}}, {"sim", section}});

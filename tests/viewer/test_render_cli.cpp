@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "../pipeline/small_session.hpp"
+#include "../pipeline/truth_map.hpp"
 #include "cpu_reference.hpp"
 #include "vdrig/calib/hdr.hpp"
 #include "vdrig/core/image_io.hpp"
@@ -110,17 +111,7 @@ TEST_F(RenderCli, CapturedViewOfGroundTruthMatchesThePhotograph) {
 
   // The scene's own Phong parameters at every texel centre: the map a perfect fit would give.
   const sim::Scene scene = sim::make_scene("patchwork").value();
-  constexpr int kTexels = 100;
-  fitting::ParameterMap map(fitting::parse_model("phong:1").value(), kTexels, kTexels, scene.width_mm, scene.height_mm);
-  for (int t = 0; t < kTexels; ++t)
-    for (int s = 0; s < kTexels; ++s) {
-      const auto truth = scene.phong_truth(texel_centre_mm(s, t, kTexels, kTexels, scene.width_mm, scene.height_mm));
-      if (!truth) continue;
-      fitting::PhongParams p;
-      p.kd = truth->kd;
-      p.lobes.push_back({truth->ks, truth->mirror_dir, truth->shininess});
-      fitting::set_phong_texel(map, s, t, p);
-    }
+  const fitting::ParameterMap map = vdrig::test::phong_truth_map(scene, 100);
   ASSERT_TRUE(map.write(dir_ / "truth.exr"));
 
   const int view = static_cast<int>(geometry->poses.size()) - 1;  // the most oblique ring

@@ -15,10 +15,7 @@ using nlohmann::json;
 TEST(WebBrowser, StartPauseResumeFromTheFormWithLiveProgress) {
   const std::string chromium = vdrig::test::find_chromium();
   const fs::path dir = fs::path(VDRIG_SOURCE_DIR) / "tests" / "web" / "browser";
-  if (chromium.empty()) GTEST_SKIP() << "no chromium (scripts/setup installs it)";
-  if (::access("/usr/bin/node", X_OK) != 0) GTEST_SKIP() << "no /usr/bin/node (scripts/setup installs nodejs)";
-  if (!fs::exists(dir / "node_modules" / "puppeteer-core" / "package.json"))
-    GTEST_SKIP() << "no " << (dir / "node_modules").string() << " (scripts/setup runs npm ci there)";
+  if (const std::string why = vdrig::test::node_browser_test_unavailable(dir); !why.empty()) GTEST_SKIP() << why;
 
   vdrig::test::TempDir root("web_browser");
   Console c(root.path());

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "../pipeline/small_session.hpp"
+#include "../pipeline/truth_map.hpp"
 #include "vdrig/core/geometry.hpp"
 #include "vdrig/core/image_codec.hpp"
 #include "vdrig/core/image_io.hpp"
@@ -65,19 +66,8 @@ class WebViewer : public ::testing::Test {
     ASSERT_TRUE(session) << session.error().describe();
     // The scene's own Phong parameters at every texel centre: the map a perfect fit would give (as the viewer's
     // render test does), where `vdrig fit` would write it.
-    const sim::Scene scene = sim::make_scene("patchwork").value();
     constexpr int kTexels = 60;
-    fitting::ParameterMap map(fitting::parse_model("phong:1").value(), kTexels, kTexels, scene.width_mm,
-                              scene.height_mm);
-    for (int t = 0; t < kTexels; ++t)
-      for (int s = 0; s < kTexels; ++s) {
-        const auto truth = scene.phong_truth(texel_centre_mm(s, t, kTexels, kTexels, scene.width_mm, scene.height_mm));
-        if (!truth) continue;
-        fitting::PhongParams p;
-        p.kd = truth->kd;
-        p.lobes.push_back({truth->ks, truth->mirror_dir, truth->shininess});
-        fitting::set_phong_texel(map, s, t, p);
-      }
+    const fitting::ParameterMap map = vdrig::test::phong_truth_map(sim::make_scene("patchwork").value(), kTexels);
     fs::create_directories(session->layout().maps_dir());
     ASSERT_TRUE(map.write(session->layout().parameter_map_file("phong:1")));
     views_ = static_cast<int>(session->manifest().views.size());
@@ -186,10 +176,7 @@ TEST_F(WebViewer, LinksBelowTheSessionFolderAreNotFollowed) {
 TEST_F(WebViewer, AWebGlRenderOfACapturedViewMatchesVdrigRender) {
   const std::string chromium = vdrig::test::find_chromium();
   const fs::path dir = fs::path(VDRIG_SOURCE_DIR) / "tests" / "web" / "browser";
-  if (chromium.empty()) GTEST_SKIP() << "no chromium (scripts/setup installs it)";
-  if (::access("/usr/bin/node", X_OK) != 0) GTEST_SKIP() << "no /usr/bin/node (scripts/setup installs nodejs)";
-  if (!fs::exists(dir / "node_modules" / "puppeteer-core" / "package.json"))
-    GTEST_SKIP() << "no " << (dir / "node_modules").string() << " (scripts/setup runs npm ci there)";
+  if (const std::string why = vdrig::test::node_browser_test_unavailable(dir); !why.empty()) GTEST_SKIP() << why;
 
   const int view = views_ - 1;  // the most oblique ring
   const fs::path ref = root_.path() / "ref.png";

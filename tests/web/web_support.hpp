@@ -15,7 +15,7 @@
 #include <string>
 #include <thread>
 
-#include "../capture/test_support.hpp"
+#include "../capture/sim_session.hpp"
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/web/server.hpp"
 
@@ -25,7 +25,8 @@ namespace fs = std::filesystem;
 /// vdrigd (the small simulated rig) and the web console on it, for the scope.
 class Console {
  public:
-  explicit Console(const fs::path& root, ServerOptions options = {}) : daemon_(daemon_config(root)) {
+  explicit Console(const fs::path& root, ServerOptions options = {})
+      : daemon_(capture::testing::sim_daemon_config(root)) {
     daemon_started_ = daemon_.start();
     if (daemon_started_) daemon_thread_ = std::thread([this] { (void)daemon_.run(); });
     options.runtime_dir = root / "run";
@@ -56,16 +57,6 @@ class Console {
   std::string origin() const { return "http://" + host(); }
 
  private:
-  static capture::DaemonConfig daemon_config(const fs::path& root) {
-    capture::DaemonConfig config;
-    config.runtime_dir = root / "run";
-    config.sessions_dir = root / "sessions";
-    config.rig_config = capture::testing::small_sim_config();
-    config.make_rig = [](const nlohmann::json& rc) { return capture::testing::make_sim_rig(rc); };
-    config.capture.disk_reserve_bytes = 0;
-    return config;
-  }
-
   capture::Daemon daemon_;
   Status daemon_started_, server_started_;
   std::thread daemon_thread_;

@@ -14,12 +14,12 @@
 namespace vdrig::viewer {
 namespace {
 
-// The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head and tail (model_glsl()), after
-// `vec4 g_params[L]`: the texel's parameter layers, fetched once per texel by load_params (the model reads its
-// parameters from there; fetching per parameter made texture fetches most of a fragment's cost on llvmpipe).
-const char* kFragmentHead = R"(#version 330 core
-out vec4 out_colour;
-uniform sampler2DArray u_params;   // parameter map channels, 4 per layer
+// The shader's body without its version line, shared with the web console's WebGL2 viewer (surface_glsl()): valid
+// GLSL 3.30 core and GLSL ES 3.00 alike. The model's evaluation, `vec3 model(ivec2 t, vec3 v)`, comes between head
+// and tail (model_glsl()), after `vec4 g_params[L]`: the texel's parameter layers, fetched once per texel by
+// load_params (the model reads its parameters from there; fetching per parameter made texture fetches most of a
+// fragment's cost on llvmpipe).
+const char* kSurfaceHead = R"(uniform sampler2DArray u_params;   // parameter map channels, 4 per layer
 uniform ivec2 u_texels;            // S, T
 uniform vec2 u_size_mm;            // W, H
 uniform vec4 u_intrinsics;         // fx, fy, cx, cy
@@ -28,10 +28,7 @@ uniform mat3 u_cam_to_surface;     // R^T
 uniform vec3 u_centre;             // camera centre, surface frame (mm)
 uniform int u_samples;             // sub-samples per axis
 uniform int u_height;              // framebuffer height (OpenCV y = row from the top)
-uniform int u_mode;                // 0 = linear radiance, 1 = tone mapped sRGB
 uniform float u_gamma;
-uniform bool u_flip_y;             // default framebuffer: row 0 at the bottom
-
 
 vec2 distort(vec2 u) {
   float r2 = dot(u, u);
@@ -52,7 +49,7 @@ vec2 undistort(vec2 d) {
 }
 )";
 
-const char* kFragmentTail = R"(
+const char* kSurfaceTail = R"(
 vec3 shade_point(vec3 p) {
   // Bilinear blend of the model evaluated at the four nearest texel centres.
   vec2 st = vec2((p.x + 0.5 * u_size_mm.x) / u_size_mm.x * float(u_texels.x) - 0.5,
@@ -73,9 +70,9 @@ vec3 shade_point(vec3 p) {
   return sum;
 }
 
-void main() {
-  float px = gl_FragCoord.x - 0.5;
-  float py = u_flip_y ? float(u_height) - gl_FragCoord.y - 0.5 : gl_FragCoord.y - 0.5;
+// Linear radiance of camera pixel (px, py) (OpenCV: centre of pixel 0 at 0, y = row from the top): the mean of
+// u_samples^2 stratified sub-pixel rays onto the surface plane; a ray that misses the surface adds nothing.
+vec3 pixel_radiance(float px, float py) {
   vec3 sum = vec3(0.0);
   float n = float(u_samples);
   for (int sy = 0; sy < u_samples; ++sy)
@@ -90,14 +87,29 @@ void main() {
       if (abs(p.x) > 0.5 * u_size_mm.x || abs(p.y) > 0.5 * u_size_mm.y) continue;
       sum += shade_point(vec3(p.xy, 0.0));
     }
-  vec3 radiance = sum / (n * n);
-  if (u_mode == 0) {
-    out_colour = vec4(radiance, 1.0);
-  } else {
-    vec3 y = 1.0 - exp(-u_gamma * max(radiance, vec3(0.0)));
-    vec3 srgb = mix(12.92 * y, 1.055 * pow(y, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), y));
-    out_colour = vec4(srgb, 1.0);
-  }
+  return sum / (n * n);
+}
+
+// Display tone mapping (tone_map()'s): y = 1 - exp(-gamma x), then sRGB encoding.
+vec3 display_srgb(vec3 radiance) {
+  vec3 y = 1.0 - exp(-u_gamma * max(radiance, vec3(0.0)));
+  return mix(12.92 * y, 1.055 * pow(y, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), y));
+}
+)";
+
+// The desktop shader: surface_glsl() with its output and main.
+const char* kDesktopHead = R"(#version 330 core
+out vec4 out_colour;
+uniform int u_mode;                // 0 = linear radiance, 1 = tone mapped sRGB
+uniform bool u_flip_y;             // default framebuffer: row 0 at the bottom
+)";
+
+const char* kDesktopMain = R"(
+void main() {
+  float px = gl_FragCoord.x - 0.5;
+  float py = u_flip_y ? float(u_height) - gl_FragCoord.y - 0.5 : gl_FragCoord.y - 0.5;
+  vec3 radiance = pixel_radiance(px, py);
+  out_colour = vec4(u_mode == 0 ? radiance : display_srgb(radiance), 1.0);
 }
 )";
 
@@ -115,10 +127,13 @@ std::string model_glsl(const fitting::ParameterMap& map) {
          });
 }
 
+std::string surface_glsl(const fitting::ParameterMap& map) {
+  return std::string(kSurfaceHead) + model_glsl(map) + kSurfaceTail;
+}
+
 Result<std::unique_ptr<SurfaceRenderer>> SurfaceRenderer::create(const fitting::ParameterMap& map) {
-  const std::string model = model_glsl(map);
   auto program = gl::link_program(gl::kFullScreenTriangleVertexShader,
-                                  std::string(kFragmentHead) + model + kFragmentTail, "surface shader");
+                                  std::string(kDesktopHead) + surface_glsl(map) + kDesktopMain, "surface shader");
   if (!program) return program.error();
   auto r = std::unique_ptr<SurfaceRenderer>(new SurfaceRenderer());
   r->program_ = program.value();

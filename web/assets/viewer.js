@@ -1,5 +1,5 @@
-// vdrig viewer: a finished session's parameter map in WebGL2 (docs/web.md), with the model's own GLSL as
-// `vdrig view` compiles it (viewer::model_glsl) and the arithmetic of viewer/src/surface_renderer.cpp's shader:
+// vdrig viewer: a finished session's parameter map in WebGL2 (docs/web.md), with the shader `vdrig view` compiles
+// (viewer::surface_glsl, served as the scene's glsl: the model's own GLSL and the surface shader's arithmetic):
 // pinhole + Brown distortion, ray onto the surface plane, bilinear blend of the model at the four nearest texel
 // centres, sub-samples per pixel axis, then y = 1 - exp(-gamma x) and sRGB. Orbit, the captured views, and at a
 // captured view the photograph or |render - photo| × 4. A click (not a drag) on the surface shows the texel
@@ -19,82 +19,23 @@ void main() {
   gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
 }`;
 
+// The fragment shader: viewer::surface_glsl as the server sends it (scene.glsl: the desktop renderer's uniforms,
+// distortion, the map's model, pixel_radiance and display_srgb) between this GLSL ES header and this main.
 const kHead = `#version 300 es
 precision highp float;
 precision highp int;
 precision highp sampler2DArray;
 precision highp sampler2D;
 out vec4 out_colour;
-uniform sampler2DArray u_params;
 uniform sampler2D u_photo;
-uniform ivec2 u_texels;
-uniform vec2 u_size_mm;
-uniform vec4 u_intrinsics;
-uniform float u_dist[5];
-uniform mat3 u_cam_to_surface;
-uniform vec3 u_centre;
-uniform int u_samples;
-uniform int u_height;
-uniform float u_gamma;
 uniform int u_display;  // 0 render, 1 photograph, 2 |render - photo| x 4
-
-vec2 distort(vec2 u) {
-  float r2 = dot(u, u);
-  float radial = 1.0 + r2 * (u_dist[0] + r2 * (u_dist[1] + r2 * u_dist[4]));
-  return vec2(u.x * radial + 2.0 * u_dist[2] * u.x * u.y + u_dist[3] * (r2 + 2.0 * u.x * u.x),
-              u.y * radial + u_dist[2] * (r2 + 2.0 * u.y * u.y) + 2.0 * u_dist[3] * u.x * u.y);
-}
-vec2 undistort(vec2 d) {
-  vec2 u = d;
-  for (int i = 0; i < 40; ++i) {
-    vec2 step = distort(u) - d;
-    u -= step;
-    if (dot(step, step) < 1e-16) break;
-  }
-  return u;
-}
 `;
 
-const kTail = `
-vec3 shade_point(vec3 p) {
-  vec2 st = vec2((p.x + 0.5 * u_size_mm.x) / u_size_mm.x * float(u_texels.x) - 0.5,
-                 (p.y + 0.5 * u_size_mm.y) / u_size_mm.y * float(u_texels.y) - 0.5);
-  ivec2 t0 = ivec2(floor(st));
-  vec2 f = st - vec2(t0);
-  vec3 sum = vec3(0.0);
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i) {
-      ivec2 t = clamp(t0 + ivec2(i, j), ivec2(0), u_texels - 1);
-      vec2 c = vec2((float(t.x) + 0.5) / float(u_texels.x) * u_size_mm.x - 0.5 * u_size_mm.x,
-                    (float(t.y) + 0.5) / float(u_texels.y) * u_size_mm.y - 0.5 * u_size_mm.y);
-      vec3 v = normalize(u_centre - vec3(c, 0.0));
-      float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
-      load_params(t);
-      sum += w * model(t, v);
-    }
-  return sum;
-}
-
+const kMain = `
 void main() {
   float px = gl_FragCoord.x - 0.5;
   float py = float(u_height) - gl_FragCoord.y - 0.5;  // OpenCV row from the top
-  vec3 sum = vec3(0.0);
-  float n = float(u_samples);
-  for (int sy = 0; sy < u_samples; ++sy)
-    for (int sx = 0; sx < u_samples; ++sx) {
-      vec2 pix = vec2(px - 0.5 + (float(sx) + 0.5) / n, py - 0.5 + (float(sy) + 0.5) / n);
-      vec2 u = undistort(vec2((pix.x - u_intrinsics.z) / u_intrinsics.x, (pix.y - u_intrinsics.w) / u_intrinsics.y));
-      vec3 ray = u_cam_to_surface * normalize(vec3(u, 1.0));
-      if (abs(ray.z) < 1e-9) continue;
-      float s = -u_centre.z / ray.z;
-      if (s <= 0.0) continue;
-      vec3 p = u_centre + s * ray;
-      if (abs(p.x) > 0.5 * u_size_mm.x || abs(p.y) > 0.5 * u_size_mm.y) continue;
-      sum += shade_point(vec3(p.xy, 0.0));
-    }
-  vec3 radiance = sum / (n * n);
-  vec3 y = 1.0 - exp(-u_gamma * max(radiance, vec3(0.0)));
-  vec3 srgb = mix(12.92 * y, 1.055 * pow(y, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), y));
+  vec3 srgb = display_srgb(pixel_radiance(px, py));
   if (u_display != 0) {
     vec3 photo = texelFetch(u_photo, ivec2(int(px), int(py)), 0).rgb;
     srgb = u_display == 1 ? photo : min(abs(srgb - photo) * 4.0, vec3(1.0));
@@ -232,7 +173,7 @@ async function loadScene(map) {
   if (!gl) return fail('this browser has no WebGL2');
   program = gl.createProgram();
   gl.attachShader(program, compile(gl.VERTEX_SHADER, kVertex));
-  gl.attachShader(program, compile(gl.FRAGMENT_SHADER, kHead + scene.glsl + kTail));
+  gl.attachShader(program, compile(gl.FRAGMENT_SHADER, kHead + scene.glsl + kMain));
   gl.linkProgram(program);
   if (!gl.getProgramParameter(program, gl.LINK_STATUS)) return fail('link: ' + gl.getProgramInfoLog(program));
 

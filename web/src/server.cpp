@@ -23,6 +23,7 @@
 #include "vdrig/capture/daemon.hpp"
 #include "vdrig/capture/session_layout.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/open_below.hpp"
 
 // Last: httplib.h includes <resolv.h>, whose macro `_res` breaks Eigen's headers (which vdrig's include).
 #include <httplib.h>
@@ -288,29 +289,31 @@ struct Server::Impl {
     res.set_content(page, "text/html; charset=utf-8");
   }
 
+  /// Whether `session` is a session name the daemon lists, undamaged (false without a sessions folder or for a name
+  /// that is not one); the daemon's failure when it cannot list the sessions.
+  Result<bool> session_listed(const std::string& session) {
+    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return false;
+    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
+    if (!listing) return listing.error();
+    for (const auto& s : listing.value().value("sessions", json::array()))
+      if (s.value("session", "") == session && !s.value("damaged", false)) return true;
+    return false;
+  }
+
   /// The bytes of a file of a listed session: `parts` are fixed names built here (never taken from the request), opened
   /// one step at a time from the sessions folder without following a link. kNotFound for anything else, so that a
   /// request cannot tell a missing file from a refused one; the daemon's failure when it cannot list the sessions.
   Result<std::string> read_session_file(const std::string& session, const std::vector<std::string>& parts,
                                         std::size_t max_bytes = std::size_t{64} << 20) {
     const Error missing = make_error(ErrorCode::kNotFound, "no such file");
-    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return missing;
-    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
-    if (!listing) return listing.error();
-    bool listed = false;
-    for (const auto& s : listing.value().value("sessions", json::array()))
-      if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
-    if (!listed) return missing;
-    int fd = ::open((options.sessions_dir / session).c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-    for (std::size_t i = 0; i < parts.size() && fd >= 0; ++i) {
-      const int flags = O_RDONLY | O_NOFOLLOW | O_CLOEXEC | (i + 1 < parts.size() ? O_DIRECTORY : 0);
-      const int next = ::openat(fd, parts[i].c_str(), flags);
-      ::close(fd);
-      fd = next;
-    }
+    auto listed = session_listed(session);
+    if (!listed) return listed.error();
+    if (!listed.value()) return missing;
     struct stat st {};
-    if (fd < 0 || ::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || static_cast<std::size_t>(st.st_size) > max_bytes) {
-      if (fd >= 0) ::close(fd);
+    const int fd = open_regular_below(options.sessions_dir / session, parts, st);
+    if (fd < 0) return missing;
+    if (static_cast<std::size_t>(st.st_size) > max_bytes) {
+      ::close(fd);
       return missing;
     }
     std::string text(static_cast<std::size_t>(st.st_size), '\0');
@@ -334,15 +337,11 @@ struct Server::Impl {
   /// The folder of a listed session, by its name only; kNotFound for another name or a linked folder.
   Result<fs::path> listed_session_dir(const std::string& session) {
     const Error missing = make_error(ErrorCode::kNotFound, "no such session");
-    if (options.sessions_dir.empty() || !capture::valid_session_name(session)) return missing;
-    auto listing = daemon_request(socket_path(), {{"cmd", "list-sessions"}}, options.daemon_timeout_s);
-    if (!listing) return listing.error();
-    bool listed = false;
-    for (const auto& s : listing.value().value("sessions", json::array()))
-      if (s.value("session", "") == session && !s.value("damaged", false)) listed = true;
+    auto listed = session_listed(session);
+    if (!listed) return listed.error();
     const fs::path dir = options.sessions_dir / session;
     std::error_code ec;
-    if (!listed || !fs::is_directory(fs::symlink_status(dir, ec))) return missing;
+    if (!listed.value() || !fs::is_directory(fs::symlink_status(dir, ec))) return missing;
     return dir;
   }
 

@@ -3,34 +3,21 @@
 // the daemon refuses, whose reason must show), watches progress events arrive, pauses, resumes, waits for the end,
 // and fails on any console error. Prints one JSON line of what it saw; exits non-zero with the reason on a failure.
 //   node console_test.mjs URL CHROMIUM PROFILE_DIR SESSION SCHEME
-import puppeteer from 'puppeteer-core';
+import { runInChromium } from './harness.mjs';
 
 const [url, chromium, profile, session, scheme] = process.argv.slice(2);
 const seen = { consoleErrors: [], expectedRefusals: 0, steps: [] };
 // The one error the browser logs by design: the refused start's 400 ("Failed to load resource"), while it is awaited.
 let refusalAwaited = false;
 const step = (s) => seen.steps.push(s);
+const expectedError = (m, where) => {
+  if (!(refusalAwaited && where.endsWith('/api/start') && m.text().includes('status of 400'))) return false;
+  seen.expectedRefusals += 1;
+  return true;
+};
 
-const browser = await puppeteer.launch({
-  executablePath: chromium,
-  headless: true,
-  userDataDir: profile,
-  args: ['--no-sandbox', '--no-first-run', '--disable-gpu', '--disable-dev-shm-usage'],
-});
-let failed = null;
-try {
-  const page = await browser.newPage();
-  page.setDefaultTimeout(15000);
-  page.on('console', (m) => {
-    if (m.type() !== 'error') return;
-    const where = (m.location() && m.location().url) || '';
-    if (refusalAwaited && where.endsWith('/api/start') && m.text().includes('status of 400')) {
-      seen.expectedRefusals += 1;
-      return;
-    }
-    seen.consoleErrors.push(m.text() + (where ? ' (' + where + ')' : ''));
-  });
-  page.on('pageerror', (e) => seen.consoleErrors.push('page error: ' + e.message));
+const options = { chromium, profile, args: ['--disable-gpu'], timeoutMs: 15000, seen, expectedError };
+await runInChromium(options, async (page) => {
   const text = (sel) => page.$eval(sel, (el) => el.textContent);
   const progress = () => page.$eval('#progress', (el) => [el.value, el.max]);
 
@@ -131,13 +118,4 @@ try {
                              document.getElementById('stage-text').textContent !== h, {}, seen.homed);
   seen.jogged = await text('#stage-text');
   step('homed and jogged');
-} catch (e) {
-  failed = String(e && e.stack || e);
-} finally {
-  await browser.close();
-}
-console.log(JSON.stringify(seen));
-if (failed) {
-  console.error(failed);
-  process.exit(1);
-}
+});

@@ -4,25 +4,12 @@
 // difference and an orbit frame must draw too, with no console error. At VIEW, a click on camera pixel (CLICK_X,
 // CLICK_Y) must show the texel inspector's plot of the texel there.
 //   node viewer_test.mjs URL CHROMIUM PROFILE_DIR SESSION VIEW CLICK_X CLICK_Y
-import puppeteer from 'puppeteer-core';
+import { runInChromium } from './harness.mjs';
 
 const [url, chromium, profile, session, view, clickX, clickY] = process.argv.slice(2);
 const seen = { consoleErrors: [], steps: [] };
-const browser = await puppeteer.launch({
-  executablePath: chromium,
-  headless: true,
-  userDataDir: profile,
-  args: ['--no-sandbox', '--no-first-run', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-         '--disable-dev-shm-usage'],
-});
-let failed = null;
-try {
-  const page = await browser.newPage();
-  page.setDefaultTimeout(30000);
-  page.on('console', (m) => {
-    if (m.type() === 'error') seen.consoleErrors.push(m.text() + ' (' + ((m.location() || {}).url || '') + ')');
-  });
-  page.on('pageerror', (e) => seen.consoleErrors.push('page error: ' + e.message));
+const args = ['--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
+await runInChromium({ chromium, profile, args, timeoutMs: 30000, seen }, async (page) => {
   await page.goto(url, { waitUntil: 'domcontentloaded' });  // the token becomes the cookie
   // The console's list links the complete session's viewer and report.
   await page.waitForSelector(`tr[data-session="${session}"] a[href^="/viewer"]`);
@@ -68,13 +55,4 @@ try {
   seen.orbit = await drawAt('orbit', 0);
   seen.orbit = { view: seen.orbit.view, png: seen.orbit.png };
   seen.statusAfter = await page.$eval('#viewer-status', (el) => el.textContent);
-} catch (e) {
-  failed = String(e && e.stack || e);
-} finally {
-  await browser.close();
-}
-console.log(JSON.stringify(seen));
-if (failed) {
-  console.error(failed);
-  process.exit(1);
-}
+});

@@ -35,4 +35,24 @@ struct SyntheticBracket {
 /// Channels get slightly different radiance (a colour tint) and a gentle vertical ripple so rows differ.
 SyntheticBracket make_synthetic_bracket(const ResponseCurve& response, const SyntheticBracketOptions& options = {});
 
+/// A merge's error against an 8-bit bracket's truth: |merged / truth - 1| over the pixel-channels that some exposure
+/// saw unclipped (0 < code < 255); its median and 95th percentile, and the median over those the last (longest)
+/// exposure saturated. NaN where there is no such pixel-channel. `merged`: CV_32FC3 in the frames' channel order.
+struct MergeErrors {
+  double median = 0, p95 = 0, median_long_clipped = 0;
+};
+MergeErrors merge_errors(const SyntheticBracket& bracket, const cv::Mat& merged);
+
+/// An 8-bit response as OpenCV's HDR merges take their camera response (CRF): 256x1 CV_32FC3, code -> exposure, in
+/// the images' B, G, R order (ResponseCurve's channels are R, G, B). OpenCV takes log(CRF), so code 0 (exposure 0 on
+/// the true curve) gets the exposure of half a code instead of -inf.
+cv::Mat opencv_crf(const ResponseCurve& response);
+
+/// The bracket's frames as OpenCV's HDR merges take them: the images and their exposure times (seconds, as float).
+struct OpenCvBracket {
+  std::vector<cv::Mat> images;
+  std::vector<float> times_s;
+};
+OpenCvBracket opencv_bracket(const SyntheticBracket& bracket);
+
 }  // namespace vdrig::calib

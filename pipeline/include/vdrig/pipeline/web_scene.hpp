@@ -1,6 +1,6 @@
-// The data of the web console's WebGL2 viewer (`vdrig serve`, docs/web.md): a session's parameter map with its
-// model's GLSL (viewer::model_glsl, the text `vdrig view` compiles), the session's camera and captured poses, and a
-// captured view's HDR photograph. The page renders with the same shader arithmetic as viewer::SurfaceRenderer.
+// The data of the web console's WebGL2 viewer (`vdrig serve`, docs/web.md): a session's parameter map with the
+// surface shader's body (viewer::surface_glsl, the text `vdrig view` compiles, its model included), the session's
+// camera and captured poses, and a captured view's HDR photograph. The page adds only its own main to the shader.
 #pragma once
 
 #include <filesystem>

@@ -136,4 +136,17 @@ inline PageResult load_page(const std::string& chromium, const std::string& url,
   return page;
 }
 
+/// Why a test that runs node on a script driving chromium (puppeteer-core) cannot run here, empty when it can: no
+/// chromium, no /usr/bin/node, or one of `modules` not installed in `folder`'s node_modules (the test skips then;
+/// scripts/setup installs all three, npm ci from the folder's package-lock.json).
+inline std::string node_browser_test_unavailable(const std::filesystem::path& folder,
+                                                 const std::vector<std::string>& modules = {"puppeteer-core"}) {
+  if (find_chromium().empty()) return "no chromium (scripts/setup installs it)";
+  if (::access("/usr/bin/node", X_OK) != 0) return "no /usr/bin/node (scripts/setup installs nodejs)";
+  for (const auto& m : modules)
+    if (!std::filesystem::exists(folder / "node_modules" / m / "package.json"))
+      return "no " + (folder / "node_modules" / m).string() + " (scripts/setup runs npm ci there)";
+  return "";
+}
+
 }  // namespace vdrig::test

@@ -57,7 +57,13 @@ cv::Mat to_camera_codes(const cv::Mat& radiance_bgr, double exposure_s, double g
 
 /// The GLSL of the map's model as the surface shader compiles it: `vec4 g_params[L]`, `void load_params(ivec2 t)`
 /// (reads the L RGBA layers of `uniform sampler2DArray u_params`, channel c in layer c/4) and the model's own
-/// `vec3 model(ivec2 t, vec3 v)` (ReflectanceModel::glsl). The web console's WebGL2 viewer uses the same text.
+/// `vec3 model(ivec2 t, vec3 v)` (ReflectanceModel::glsl).
 std::string model_glsl(const fitting::ParameterMap& map);
+
+/// The surface shader's body, without version line, output or main (GLSL 3.30 core and GLSL ES 3.00 alike): its
+/// camera and surface uniforms, the distortion, model_glsl(map), `vec3 pixel_radiance(float px, float py)` (linear
+/// radiance of an OpenCV pixel) and `vec3 display_srgb(vec3 radiance)` (tone_map()'s curve). SurfaceRenderer compiles
+/// it, and so does the web console's WebGL2 viewer (pipeline::web_scene's "glsl"), each with its own main.
+std::string surface_glsl(const fitting::ParameterMap& map);
 
 }  // namespace vdrig::viewer
