@@ -162,7 +162,14 @@ TEST(WebSecurity, FramesAndTheStageTakeOnlyNamesAndNumbers) {
     const HttpReply r = http(c.port(), request("GET", "/api/frame?" + query, c.host(), token));
     EXPECT_EQ(r.status, 400) << query << ": " << r.body;
   }
-  // The journal's tail: its last lines only.
+  // The journal's tail: its last lines only. The frame's file is written before its journal line, so wait until the
+  // whole journal has more lines than the tail asks for (the capture goes on meanwhile: ask for the tail after).
+  HttpReply whole;
+  for (int i = 0; i < 200 && std::count(whole.body.begin(), whole.body.end(), '\n') < 3; ++i) {
+    if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    whole = http(c.port(), request("GET", "/files/s1/journal.jsonl", c.host(), token));
+  }
+  ASSERT_GE(std::count(whole.body.begin(), whole.body.end(), '\n'), 3) << whole.body;
   const HttpReply tail = http(c.port(), request("GET", "/files/s1/journal.jsonl?tail=2", c.host(), token));
   ASSERT_EQ(tail.status, 200);
   EXPECT_EQ(std::count(tail.body.begin(), tail.body.end(), '\n'), 2) << tail.body;
