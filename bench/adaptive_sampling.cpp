@@ -1,12 +1,12 @@
 // Adaptive sampling against uniform schemes (issue 30, docs/sampling.md "adaptive", docs/results.md): per scene,
 // sessions captured on the simulator with adaptive:N and with uniform schemes (spiral, latlong, icosahedron) of about
 // the same size, and the uniform 289-view icosahedron:3@85 as the reference; each session's HDR views merged, a
-// 32x32 observation map, a phong:1 fit, and the fit evaluated against the simulator's truth (pipeline::evaluate_map:
-// relative RMS over 1000 directions, texel-weighted mean over the materials but printed paper, and the worst one).
-// Times: the stage's moves (capture/route.hpp's move model) from home through every view in capture order, beside the
-// same views routed at once (a lower bound no loop can reach: later batches depend on earlier views); rig time = the
-// moves + the shooting (what the simulated rig charges a view: the bracket's exposures, 0.5 + 0.125 + 0.03 s; it
-// models no readout or settle) + the adaptive planner's wall time between batches (the rig waits for it).
+// 32x32 observation map, the fits of --fits (phong:1 by default), and each fit evaluated against the simulator's truth
+// (pipeline::evaluate_map: relative RMS over 1000 directions, texel-weighted mean over the materials but printed paper,
+// and the worst one). Times: the stage's moves (capture/route.hpp's move model) from home through every view in capture
+// order, beside the same views routed at once (a lower bound no loop can reach: later batches depend on earlier views);
+// rig time = the moves + the shooting (what the simulated rig charges a view: the bracket's exposures, 0.5 + 0.125 +
+// 0.03 s; it models no readout or settle) + the adaptive planner's wall time between batches (the rig waits for it).
 // Held-out photographs (`vdrig compare`, pipeline::compare_maps): per scene a separate session of 12 views
 // (stratified:3x4:97@80, in none of the schemes) is captured once and each fitted map is rendered there and compared
 // with its HDR photographs: mean |render - photo| in 8-bit codes over all counted pixels, what a real rig (no truth)
@@ -22,7 +22,9 @@
 //        [--fits "phong:1,phong:1 sa,ggx:iso"] [--diagnose] [--blender] [--blender-only]
 // (default /tmp/vdrig_bench_adaptive, every scene and scheme, phong:1; prints one table per scene). --fits fits each
 // session with each model (" sa": solid-angle weights, PhongFitOptions::solid_angle_weights; ggx with the scene's one
-// light, skipped on a scene lit otherwise); --diagnose adds per material where the error is (cone, grazing, else).
+// light, skipped on a scene lit otherwise). `vdrig fit` weights adaptive sessions by default (--weights auto), so its
+// figures for an adaptive session are the " sa" rows, for a uniform one the plain rows; --diagnose adds per material
+// where the error is (cone, grazing, else).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -419,6 +421,7 @@ void print_row(const Row& r, bool truth) {
 int main(int argc, char** argv) {
   fs::path work = "/tmp/vdrig_bench_adaptive";
   std::vector<std::string> scene_names = {"patchwork", "ggx4", "lights2"};
+  // ahead=1: each batch planned and routed alone (the loop before the joint route), for comparison.
   // ahead=1: each batch planned and routed alone (the loop before the joint route), for comparison.
   std::vector<std::string> schemes = {"adaptive:30",     "adaptive:45",     "adaptive:60",  "adaptive:60,ahead=1",
                                       "spiral:30:3@85",  "spiral:60:5@85",  "latlong:4:85", "icosahedron:2@85",
