@@ -28,6 +28,13 @@ uint8_t srgb_code(double linear) {
   return static_cast<uint8_t>(std::lround(255.0 * e));
 }
 
+/// Linear [0, 1] to the sRGB transfer curve, 16 bit (KHR_materials_specular's specularColorTexture: see export_gltf).
+uint16_t srgb_code16(double linear) {
+  const double x = std::clamp(linear, 0.0, 1.0);
+  const double e = x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+  return static_cast<uint16_t>(std::lround(65535.0 * e));
+}
+
 uint8_t linear_code(double x) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(x, 0.0, 1.0))); }
 
 void append_floats(std::string& bytes, std::initializer_list<float> values) {
@@ -62,7 +69,8 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
   GltfExport result;
   // Image row y is texel row t = y (texel (0, 0) at the surface's smallest x and y), which glTF's UV (0, 0), the
   // image's first row, addresses: no flip.
-  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_8UC3), normal(T, S, CV_8UC3), anisotropy(T, S, CV_8UC3);
+  cv::Mat base(T, S, CV_8UC3), mr(T, S, CV_8UC3), spec(T, S, CV_16UC3), normal(T, S, CV_8UC3),
+      anisotropy(T, S, CV_8UC3);
   const bool normals = ggx->has_shading_normal(), aniso = ggx->is_anisotropic(), tangents = normals || aniso;
   double f0_max = 0.0;
   bool f0_dielectric = true;
@@ -95,11 +103,16 @@ Result<GltfExport> export_gltf(const fitting::ParameterMap& map, const fs::path&
       }
     }
   result.specular_extension = !f0_dielectric && f0_max > 0.0;
+  // specularColorTexture is sRGB (the extension's README); 16 bit rather than 8 because Blender 3.4's importer bakes
+  // its Specular from `image.pixels`, which are the encoded values of an 8-bit image (F0 / max F0 = 0.04 read as 0.22)
+  // but linear ones of a 16-bit image (loaded as float and decoded): the same sRGB data then reads right in Blender and
+  // in every renderer that follows the extension (docs/blender.md). The spec's other per-texel form, specularTexture
+  // (A, linear), is no way out: it scales F90 as well as F0, and Blender 3.4's conversion ignores it.
   if (result.specular_extension)
     for (int t = 0; t < T; ++t)
       for (int s = 0; s < S; ++s) {
         const Vec3d f0 = fitting::GgxModel::material(map.parameters(s, t)).f0 / f0_max;
-        spec.at<cv::Vec3b>(t, s) = cv::Vec3b(srgb_code(f0.z()), srgb_code(f0.y()), srgb_code(f0.x()));
+        spec.at<cv::Vec3w>(t, s) = cv::Vec3w(srgb_code16(f0.z()), srgb_code16(f0.y()), srgb_code16(f0.x()));
       }
 
   // The quad: surface (x, y) at glTF (x, 0, -y), metres; counter-clockwise seen from +Y (its normal).

@@ -274,14 +274,15 @@ TEST(BlenderRoundTrip, ReimportedExportMatchesTheOriginalRenders) {
     results.push_back(r);
   }
   // Measured (docs/blender.md, docs/results.md section 9), views in the order highlight, then two spread: Blender's
-  // import vs the original 169.0 / 32.3 / 4.08 codes worst region, 51.0 / 8.50 / 1.84 mean; vdrig's render of the fit
+  // import vs the original 116.8 / 7.85 / 2.17 codes worst region, 25.3 / 1.59 / 1.03 mean; vdrig's render of the fit
   // 99.4 / 6.07 / 1.44 and 18.5 / 1.61 / 0.90 (the held-out highlight is the fit's own error: 18 % too bright over
-  // the sample); the import with its specular conversion replaced by glTF's definition 116.2 / 7.84 / 2.21 and 25.0 /
-  // 1.63 / 1.05: most of the import's excess is Blender 3.4's KHR_materials_specular conversion (docs/blender.md).
-  // The control (roughness squared) 935 / 31.2 / 7.66 worst, 144 / 11.7 / 3.43 mean.
-  const double gltf_worst[] = {169.0, 32.3, 4.08}, gltf_mean[] = {51.0, 8.50, 1.84};
+  // the sample); the import with its specular conversion replaced by glTF's definition 116.3 / 7.81 / 2.21 and 25.0 /
+  // 1.63 / 1.05, the import's means within 2.5 % of these. Before the specular texture was 16 bit (docs/blender.md),
+  // Blender 3.4 read its sRGB values undecoded: the import was 169 / 32.3 / 4.08 worst, 51.0 / 8.50 / 1.84 mean.
+  // The control (roughness squared) 860 / 32.8 / 7.72 worst, 118 / 12.1 / 3.46 mean.
+  const double gltf_worst[] = {116.8, 7.85, 2.17}, gltf_mean[] = {25.3, 1.59, 1.03};
   const double fit_worst[] = {99.4, 6.07, 1.44}, fit_mean[] = {18.5, 1.61, 0.90};
-  const double corrected_worst[] = {116.2, 7.84, 2.21};
+  const double corrected_worst[] = {116.3, 7.81, 2.21};
   ASSERT_TRUE(written->specular_extension) << "the fit's F0 is 0.04 everywhere: the experiment needs the extension";
   int control_fails = 0;
   for (size_t k = 0; k < results.size(); ++k) {
@@ -292,13 +293,14 @@ TEST(BlenderRoundTrip, ReimportedExportMatchesTheOriginalRenders) {
     EXPECT_LT(r.fit.worst, 1.5 * fit_worst[k]);
     EXPECT_LT(r.fit.mean, 1.5 * fit_mean[k]);
     EXPECT_LT(r.corrected.worst, 1.5 * corrected_worst[k]);
-    // The corrected import is closer to the original than the import everywhere.
-    EXPECT_LT(r.corrected.mean, r.gltf.mean);
+    // Blender's own import reads the specular as the extension defines it: as close to the original as the node tree
+    // rewired to the definition (an 8-bit sRGB texture, read undecoded, was twice as far on the highlight view).
+    EXPECT_LT(std::abs(r.gltf.mean - r.corrected.mean), 0.1 * r.corrected.mean);
     if (r.control.worst > 1.5 * gltf_worst[k] || r.control.mean > 1.5 * gltf_mean[k]) ++control_fails;
   }
-  // The roughness squared fails the bounds: the highlight view 5.5 times the import's worst, the third view 1.9.
+  // The roughness squared fails the bounds on every view: the highlight's 7.4 times the import's worst, the third 3.6.
   EXPECT_GT(results[0].control.worst, 3.0 * gltf_worst[0]);
-  EXPECT_GE(control_fails, 2);
+  EXPECT_EQ(control_fails, 3);
 }
 
 }  // namespace

@@ -120,8 +120,9 @@ TEST(GltfExport, WritesTheMaterialOnAQuadOfTheSamplesSize) {
   const nlohmann::json& specular = material["extensions"]["KHR_materials_specular"];
   EXPECT_NEAR(specular["specularColorFactor"][0].get<double>(), 0.9 / 0.04, 1e-5);  // F0 stored as float
   const cv::Mat spec = image_of(specular["specularColorTexture"]);
-  EXPECT_EQ(spec.at<cv::Vec3b>(2, 3)[2], 255);  // R of texel (3, 2): 0.9 / 0.9
-  EXPECT_EQ(spec.at<cv::Vec3b>(0, 0)[2], 59);   // 0.04 / 0.9 sRGB-encoded
+  ASSERT_EQ(spec.type(), CV_16UC3);               // 16 bit: Blender 3.4 reads 8-bit sRGB undecoded (gltf_export.hpp)
+  EXPECT_EQ(spec.at<cv::Vec3w>(2, 3)[2], 65535);  // R of texel (3, 2): 0.9 / 0.9
+  EXPECT_EQ(spec.at<cv::Vec3w>(0, 0)[2], 15289);  // 0.04 / 0.9 sRGB-encoded (59.5 of 255)
   EXPECT_EQ(gltf["extensionsUsed"][0], "KHR_materials_specular");
 
   bool skipped = false;
@@ -132,6 +133,42 @@ TEST(GltfExport, WritesTheMaterialOnAQuadOfTheSamplesSize) {
   EXPECT_EQ(report["warnings"], 0) << report.dump(1);
   for (const auto& message : report["messages"]) std::printf("  %s\n", message.dump().c_str());
   EXPECT_EQ(report["resources"].size(), 4u) << report.dump(1);  // the buffer and the three images were read
+}
+
+// The extension's dielectric F0 = 0.04 x specularColorFactor x specularColorTexture.rgb, the texture sRGB-encoded
+// (KHR_materials_specular's README): decoded that way, the export gives back each texel's fitted F0. An export that
+// stored F0 linearly (or decoded it twice) is off by up to 3x at these levels (0.03 / 0.06 linear is 0.5, sRGB 0.74).
+TEST(GltfExport, SpecularColorTextureCarriesEachTexelsF0InSrgb) {
+  test::TempDir dir("gltf_export_f0");
+  fitting::ParameterMap map(fitting::parse_model("ggx:iso").value(), 4, 3, 300.0, 200.0);
+  auto f0_of = [](int s, int t) {
+    const double level = 0.03 + 0.01 * s + 0.002 * t;  // 0.03 .. 0.064: a fitted dielectric's spread
+    return t == 1 && s == 2 ? Vec3d(level, 0.8 * level, 0.5 * level) : Vec3d::Constant(level);  // one coloured
+  };
+  for (int t = 0; t < 3; ++t)
+    for (int s = 0; s < 4; ++s) {
+      const Vec3d f0 = f0_of(s, t);
+      map.set_parameters(s, t,
+                         std::vector<double>{0.5, 0.4, 0.3, f0.x(), f0.y(), f0.z(), 0.4, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0});
+    }
+  auto written = export_gltf(map, dir, "f0");
+  ASSERT_TRUE(written) << written.error().describe();
+  ASSERT_TRUE(written->specular_extension);
+  const nlohmann::json gltf = read_json(written->gltf);
+  const nlohmann::json& specular = gltf["materials"][0]["extensions"]["KHR_materials_specular"];
+  EXPECT_EQ(specular.value("specularFactor", 1.0), 1.0);  // F90 = specularFactor x specularTexture.a = 1 (Schlick)
+  EXPECT_FALSE(specular.contains("specularTexture"));
+  const int source = gltf["textures"][specular["specularColorTexture"]["index"].get<int>()]["source"];
+  const cv::Mat spec = read_png(dir / gltf["images"][source]["uri"].get<std::string>()).value();
+  ASSERT_EQ(spec.type(), CV_16UC3);
+  const auto srgb_decode = [](double e) { return e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4); };
+  for (int t = 0; t < 3; ++t)
+    for (int s = 0; s < 4; ++s)
+      for (int c = 0; c < 3; ++c) {
+        const double texture = srgb_decode(spec.at<cv::Vec3w>(t, s)[2 - c] / 65535.0);  // BGR
+        const double f0 = 0.04 * specular["specularColorFactor"][c].get<double>() * texture;
+        EXPECT_NEAR(f0, f0_of(s, t)[c], 1e-4 * f0_of(s, t)[c]) << "texel (" << s << ", " << t << ") channel " << c;
+      }
 }
 
 TEST(GltfExport, ADielectricNeedsNoExtension) {

@@ -7,8 +7,8 @@
 //  - <name>_basecolor.png: the albedo, sRGB-encoded 8 bit (glTF: baseColorTexture is sRGB), clamped to [0, 1];
 //  - <name>_metallicroughness.png: linear 8 bit, roughness in G, metallic 0 in B (R unused, 0);
 //  - <name>_specular.png (only when some texel's F0 is not 0.04 within kF0Tolerance): KHR_materials_specular's
-//    specularColorTexture, sRGB-encoded F0 / max F0, with specularColorFactor max F0 / 0.04, so that glTF's dielectric
-//    F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1: F90 = 1 as in Schlick's form);
+//    specularColorTexture, F0 / max F0 sRGB-encoded in 16 bit (8-bit sRGB reads wrong in Blender 3.4: docs/blender.md),
+//    specularColorFactor max F0 / 0.04: glTF's F0 = 0.04 x factor x texture is the fitted F0 (specularFactor 1, F90 1);
 //  - <name>_normal.png (ggx:iso+n, aniso+n): normalTexture, linear 8 bit, the shading normal in tangent space as glTF
 //    encodes it (0.5 + 0.5 n): red along the surface's +x, green along its -y (glTF's green points up the image,
 //    toward smaller v), blue the geometric normal; the quad then carries an explicit TANGENT (+x, w = -1);
