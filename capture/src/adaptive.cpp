@@ -211,6 +211,14 @@ Result<std::unique_ptr<ViewPlanner>> make_view_planner() {
   return factory()();
 }
 
+Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir) {
+  auto settings = parse_adaptive_scheme(scheme);
+  if (!settings) return settings.error();
+  auto planner = make_view_planner();
+  if (!planner) return planner.error();
+  return planner.value()->check(settings.value(), session_dir);
+}
+
 double AdaptiveProgress::planned_move_s() const {
   double t = base_move_s;
   for (const auto& b : batches) t += b.move_s;

@@ -97,19 +97,31 @@ struct TexelLobe {
   bool poorly_constrained() const { return capped || in_cone < kWantedLobeViews; }
 };
 
+/// The intrinsics the planner projects with: camera=FILE.yml of the scheme, or the session's calib/camera.yml.
+Result<CameraModel> planner_camera(const capture::AdaptiveSettings& a, const std::filesystem::path& session_dir) {
+  const auto path =
+      a.camera.empty() ? capture::SessionLayout(session_dir).camera_file() : std::filesystem::path(a.camera);
+  auto camera = CameraModel::load_yaml(path);
+  if (!camera)
+    return make_error(camera.error().code,
+                      "adaptive sampling projects with the camera's intrinsics: " + camera.error().message +
+                          " (give camera=FILE.yml in the scheme, from `vdrig calib intrinsics`)");
+  return camera;
+}
+
 class CoarseFitPlanner final : public capture::ViewPlanner {
  public:
+  Status check(const capture::AdaptiveSettings& a, const std::filesystem::path& session_dir) const override {
+    // A new session has no calib/ yet: then the intrinsics must come with the scheme (camera=FILE.yml).
+    return planner_camera(a, session_dir).status();
+  }
   Result<capture::BatchPlan> plan_batch(const capture::BatchRequest& req) override {
     auto logger = log::get("pipeline");
     const auto start = std::chrono::steady_clock::now();
     const capture::Session& session = *req.session;
     const capture::AdaptiveSettings& a = req.settings;
-    const auto camera_path = a.camera.empty() ? session.layout().camera_file() : std::filesystem::path(a.camera);
-    auto camera = CameraModel::load_yaml(camera_path);
-    if (!camera)
-      return make_error(camera.error().code,
-                        "adaptive sampling projects with the camera's intrinsics: " + camera.error().message +
-                            " (give camera=FILE.yml in the scheme, from `vdrig calib intrinsics`)");
+    auto camera = planner_camera(a, session.dir());
+    if (!camera) return camera.error();
     // The coarse observation map of every complete view.
     std::vector<int> views;
     for (const auto& v : session.manifest().views)

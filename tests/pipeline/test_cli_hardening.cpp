@@ -162,6 +162,17 @@ TEST_F(CliHardening, HugeSimulatedCameraIsRefusedBeforeTheSessionFolderExists) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+TEST_F(CliHardening, AdaptiveCaptureWithoutIntrinsicsIsRefusedBeforeTheSessionFolderExists) {
+  // The planner projects with the camera's intrinsics: without camera=FILE.yml a new session has none, and the
+  // capture used to stop only after its base views.
+  const fs::path out = dir_ / "adaptive_session";
+  expect_refused(vdrig("capture --scheme adaptive:16 --out '" + out.string() + "'"), "camera=FILE.yml");
+  EXPECT_FALSE(fs::exists(out));
+  expect_refused(vdrig("capture --scheme adaptive:16,camera=/nonexistent.yml --out '" + out.string() + "'"),
+                 "/nonexistent.yml");
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // --- item 3: settings that silently disabled a check --------------------------------------------------------------
 
 TEST_F(CliHardening, ReserveMbMustBeANonNegativeNumber) {

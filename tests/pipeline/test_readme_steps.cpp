@@ -28,6 +28,7 @@ constexpr Shrink kShrink[] = {
     {"512x512", "32x32"},  // the observation map, its file and the fits: 32x32 texels
     {"--scheme icosahedron:3@85", "--scheme icosahedron:2@85"},  // fewer views, still enough for hsh:6 and phong:auto
     {"--texel 100,200", "--texel 10,20"},                        // a texel inside the 32x32 map
+    {"--scheme adaptive:60,", "--scheme adaptive:16,"},          // a base of 8 views and one or two batches
 };
 
 /// Lines of the block that do not run here, by the start of their command, with the reason. Each must match a line.

@@ -84,7 +84,16 @@ class ViewPlanner {
  public:
   virtual ~ViewPlanner() = default;
   virtual Result<BatchPlan> plan_batch(const BatchRequest& request) = 0;
+  /// What the planner needs besides the views (e.g. the camera's intrinsics), checked before a new session is made:
+  /// a capture that could not plan its first batch is refused up front, not after its base views. `session_dir`: the
+  /// session to be (its files do not exist yet).
+  virtual Status check(const AdaptiveSettings& /*settings*/, const std::filesystem::path& /*session_dir*/) const {
+    return Status::ok();
+  }
 };
+
+/// make_view_planner(), then its check() of `scheme` (an adaptive: spec) for a new session at `session_dir`.
+Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir);
 
 using ViewPlannerFactory = std::function<std::unique_ptr<ViewPlanner>()>;
 /// The planner of this executable (the pipeline's, when built): set once at start-up.
