@@ -164,11 +164,4 @@ def main():
                                         "lights": len(lights), "corrected": corrected}))
 
 
-try:
-    main()
-except Exception as e:  # the reason on stderr, exit 1: the test shows it
-    sys.stderr.write("blender_roundtrip.py: %s\n" % e)
-    sys.stdout.flush()
-    os._exit(1)
-sys.stdout.flush()
-os._exit(0)
+blender_render.run(main, "blender_roundtrip.py")

@@ -195,12 +195,17 @@ def main():
     print("VDRIG_RESULT " + json.dumps(facts))
 
 
-if __name__ == "__main__":  # Blender's script, not blender_roundtrip.py's import
+def run(main, script):
+    """Runs a script's main and ends Blender: exit 0, or 1 with the reason on stderr (the test shows it)."""
     try:
         main()
-    except Exception as e:  # the reason on stderr, exit 1: the test shows it
-        sys.stderr.write("blender_render.py: %s\n" % e)
+    except Exception as e:
+        sys.stderr.write("%s: %s\n" % (script, e))
         sys.stdout.flush()
         os._exit(1)
     sys.stdout.flush()
     os._exit(0)
+
+
+if __name__ == "__main__":  # Blender's script, not blender_roundtrip.py's import
+    run(main, "blender_render.py")
