@@ -41,6 +41,18 @@ struct Ray {
   double w;
 };
 
+/// The rays a light can explain: positive finite weight, finite origin, a direction of non-zero length (made unit).
+std::vector<Ray> usable_rays(const std::vector<LobeRay>& rays_in) {
+  std::vector<Ray> rays;
+  for (const LobeRay& r : rays_in) {
+    const double n = r.toward_light.norm();
+    if (!(r.weight > 0.0) || !std::isfinite(r.weight) || !r.origin_mm.allFinite() || !std::isfinite(n) || !(n > 0.0))
+      continue;
+    rays.push_back({r.origin_mm, r.toward_light / n, r.weight});
+  }
+  return rays;
+}
+
 /// A light hypothesis: a point, or a direction (at infinity).
 struct Model {
   bool infinite = false;
@@ -181,13 +193,7 @@ Result<std::vector<EstimatedLight>> estimate_point_lights(const std::vector<Lobe
                                                           const LightEstimationOptions& opt) {
   std::string why;
   if (!opt.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, why);
-  std::vector<Ray> rays;
-  for (const LobeRay& r : rays_in) {
-    const double n = r.toward_light.norm();
-    if (!(r.weight > 0.0) || !std::isfinite(r.weight) || !r.origin_mm.allFinite() || !std::isfinite(n) || !(n > 0.0))
-      continue;
-    rays.push_back({r.origin_mm, r.toward_light / n, r.weight});
-  }
+  const std::vector<Ray> rays = usable_rays(rays_in);
   std::vector<EstimatedLight> lights;
   const size_t min_inliers = static_cast<size_t>(opt.min_inliers);
   if (rays.size() < std::max<size_t>(2, min_inliers)) return lights;
@@ -281,13 +287,7 @@ Result<std::vector<EstimatedLight>> estimate_point_lights(const std::vector<Lobe
 Result<Mat3d> light_position_covariance(const std::vector<LobeRay>& rays_in, const EstimatedLight& light,
                                         const LightEstimationOptions& opt) {
   if (light.at_infinity) return make_error(ErrorCode::kInvalidArgument, "a light at infinity has no position");
-  std::vector<Ray> rays;
-  for (const LobeRay& r : rays_in) {
-    const double n = r.toward_light.norm();
-    if (!(r.weight > 0.0) || !std::isfinite(r.weight) || !r.origin_mm.allFinite() || !std::isfinite(n) || !(n > 0.0))
-      continue;
-    rays.push_back({r.origin_mm, r.toward_light / n, r.weight});
-  }
+  const std::vector<Ray> rays = usable_rays(rays_in);
   std::vector<int> pool(rays.size());
   for (size_t i = 0; i < rays.size(); ++i) pool[i] = static_cast<int>(i);
   Model m;

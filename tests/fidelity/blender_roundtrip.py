@@ -11,7 +11,8 @@
 # wants sqrt(alpha)): a negative control; and, when the export carries KHR_materials_specular, out_dir/corrected_K.f32:
 # the import with its specular conversion replaced by the extension's definition (spec_specular). Prints one line
 # "VDRIG_RESULT {json}"; exits 3 with VDRIG_SKIP when Blender's Python has no numpy (the importer needs it), 1 with
-# the reason on a failure. vdrig's own code.
+# the reason on a failure. The import, Cycles settings and render-to-float32 are tests/gltf/blender_render.py's (the
+# glTF peer render), imported from there. vdrig's own code.
 import json
 import math
 import os
@@ -21,37 +22,19 @@ import time
 import bpy
 from mathutils import Matrix
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "gltf"))
+import blender_render  # noqa: E402 (tests/gltf/blender_render.py: found through the path above)
+
 
 def setup_render(scene, job):
-    """vdrig_blender.py's settings: Cycles on the CPU, no denoising, box filter of one pixel, linear EXR."""
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = int(job.get("samples", 16))
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = False
-    scene.cycles.seed = 1
+    """vdrig_blender.py's settings: blender_render.py's Cycles settings (CPU, no denoising, box filter of one pixel,
+    linear EXR) with four bounces, no caustics and no clamping."""
+    blender_render.setup_cycles(scene, job, max_bounces=4)
     scene.cycles.use_animated_seed = False
-    scene.cycles.pixel_filter_type = "BOX"
-    scene.cycles.filter_width = 1.0
-    scene.cycles.max_bounces = 4
     scene.cycles.caustics_reflective = False
     scene.cycles.caustics_refractive = False
-    scene.cycles.light_sampling_threshold = 0.0
     scene.cycles.sample_clamp_direct = 0.0
     scene.cycles.sample_clamp_indirect = 0.0
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = 2
-    scene.render.resolution_x = int(job["width"])
-    scene.render.resolution_y = int(job["height"])
-    scene.render.resolution_percentage = 100
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_mode = "RGBA"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
 
@@ -75,19 +58,10 @@ def add_camera(scene, job):
 
 
 def render_views(scene, cam, job, prefix):
-    import numpy
     flip = Matrix(((1, 0, 0, 0), (0, -1, 0, 0), (0, 0, -1, 0), (0, 0, 0, 1)))  # OpenCV axes to Blender's
     for k, m in enumerate(job["views"]):
         cam.matrix_world = Matrix([m[0:4], m[4:8], m[8:12], m[12:16]]) @ flip
-        exr = os.path.join(job["out_dir"], "%s_%d.exr" % (prefix, k))
-        scene.render.filepath = exr
-        bpy.ops.render.render(write_still=True)
-        image = bpy.data.images.load(exr)
-        image.colorspace_settings.name = "Non-Color"  # the EXR's linear values as they are
-        pixels = numpy.empty(len(image.pixels), dtype=numpy.float32)
-        image.pixels.foreach_get(pixels)
-        pixels.tofile(os.path.join(job["out_dir"], "%s_%d.f32" % (prefix, k)))
-        bpy.data.images.remove(image)
+        blender_render.render_f32(scene, job["out_dir"], "%s_%d" % (prefix, k))
 
 
 def square_roughness(material):
@@ -150,15 +124,7 @@ def square_roughness_undo(material):
 
 def main():
     job = json.load(open(sys.argv[sys.argv.index("--") + 1]))
-    try:
-        import numpy
-    except ImportError:
-        print("VDRIG_SKIP Blender's Python has no numpy (scripts/setup installs python3-numpy)")
-        sys.stdout.flush()
-        os._exit(3)
-    # Debian 12's blender 3.4.1 importer calls numpy.bool, an alias numpy 1.24 removed (tests/gltf/blender_render.py).
-    if not hasattr(numpy, "bool"):
-        numpy.bool = bool
+    blender_render.require_numpy()
     start = time.monotonic()
     # The original: the .blend as the blender camera renders it (its lights and world, its cameras removed).
     bpy.ops.wm.open_mainfile(filepath=job["blend"])
@@ -173,15 +139,7 @@ def main():
     render_views(scene, add_camera(scene, job), job, "original")
 
     # The export, through Blender's own importer, under the same lights and camera.
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    bpy.ops.import_scene.gltf(filepath=job["gltf"])
-    for obj in list(scene.objects):
-        if obj.type in ("LIGHT", "CAMERA"):
-            bpy.data.objects.remove(obj)
-    meshes = [o for o in scene.objects if o.type == "MESH"]
-    if not meshes or not meshes[0].active_material:
-        raise RuntimeError("the import holds no mesh with a material")
+    scene, material = blender_render.import_gltf(job["gltf"])
     for i, l in enumerate(lights):
         data = bpy.data.lights.new("light_%d" % i, l["type"])
         data.energy = l["energy"]
@@ -194,7 +152,6 @@ def main():
     setup_render(scene, job)
     cam = add_camera(scene, job)
     render_views(scene, cam, job, "gltf")
-    material = meshes[0].active_material
     square_roughness(material)
     render_views(scene, cam, job, "control")
     # The experiment of docs/blender.md: the same import with its specular conversion replaced by glTF's definition
@@ -207,11 +164,4 @@ def main():
                                         "lights": len(lights), "corrected": corrected}))
 
 
-try:
-    main()
-except Exception as e:  # the reason on stderr, exit 1: the test shows it
-    sys.stderr.write("blender_roundtrip.py: %s\n" % e)
-    sys.stdout.flush()
-    os._exit(1)
-sys.stdout.flush()
-os._exit(0)
+blender_render.run(main, "blender_roundtrip.py")

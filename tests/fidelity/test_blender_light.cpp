@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "blender_session.hpp"
 #include "vdrig/pipeline/fit_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/session_light.hpp"
@@ -21,33 +22,20 @@ namespace vdrig::pipeline {
 namespace {
 namespace fs = std::filesystem;
 
-double since_s(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
+using test_blender::since_s;
 
 TEST(BlenderLight, EstimatedLightPredictsHeldOutViewsAsTheRecordedOne) {
   if (std::system("command -v blender >/dev/null 2>&1") != 0) GTEST_SKIP() << "blender is not installed";
   const test::TempDir dir("blender_light");
   const auto t0 = std::chrono::steady_clock::now();
-  const fs::path blend = dir.path() / "textured_clearcoat_plastic.blend";
-  const std::string make = "blender --background --factory-startup --python " +
-                           (fs::path(VDRIG_SOURCE_DIR) / "scripts" / "blender_scenes.py").string() + " -- " +
-                           dir.path().string() + " textured_clearcoat_plastic >/dev/null 2>&1";
-  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  const fs::path blend = test_blender::make_sample_blend(dir.path(), "textured_clearcoat_plastic");
+  ASSERT_TRUE(fs::exists(blend));
   // The .blend's light (scripts/blender_scenes.py: the built-in scenes' point light), stated as a rig's measured lamp.
   const Vec3d lamp_mm(1500, 1500, 2000);
-  CaptureRequest req;
-  req.out_dir = dir.path() / "session";
-  req.rig_config = {
-      {"stage", {{"backend", "sim"}}},
-      {"camera", {{"backend", "blender"}, {"samples", 16}, {"blend", blend.string()}}},
-      {"light",
-       {{"backend", "sim"},
-        {"position_mm", {lamp_mm.x(), lamp_mm.y(), lamp_mm.z()}},
-        {"position_source", "scripts/blender_scenes.py"}}},
-      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 256}, {"height", 192}, {"fx", 320.0}, {"fy", 320.0}}}}}};
-  req.scheme = "latlong:3";
-  req.exposures_s = {1.0, 0.25, 0.0625};
+  CaptureRequest req = test_blender::blender_capture_request(dir.path() / "session", blend, "latlong:3");
+  req.rig_config["light"] = {{"backend", "sim"},
+                             {"position_mm", {lamp_mm.x(), lamp_mm.y(), lamp_mm.z()}},
+                             {"position_source", "scripts/blender_scenes.py"}};
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
   const double capture_s = since_s(t0);

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "blender_session.hpp"
 #include "vdrig/pipeline/fit_stage.hpp"
 #include "vdrig/pipeline/gltf_export.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
@@ -34,9 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-double since_s(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
+using test_blender::since_s;
 
 constexpr int kRegions = 4;
 constexpr double kSampleHalfM = 0.4;  // the .blend's sample: the central 0.8 x 0.8 m of the 1 m board
@@ -140,29 +139,14 @@ TEST(BlenderRoundTrip, ReimportedExportMatchesTheOriginalRenders) {
   if (!fs::exists("/usr/bin/blender")) GTEST_SKIP() << "no blender (scripts/setup installs it)";
   const test::TempDir dir("blender_roundtrip");
   const auto t0 = std::chrono::steady_clock::now();
-  const fs::path blend = dir.path() / "bumped_textured_plastic.blend";
-  const std::string make = "/usr/bin/blender --background --factory-startup --python " +
-                           (fs::path(VDRIG_SOURCE_DIR) / "scripts" / "blender_scenes.py").string() + " -- " +
-                           dir.path().string() + " bumped_textured_plastic >/dev/null 2>&1";
-  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  const fs::path blend = test_blender::make_sample_blend(dir.path(), "bumped_textured_plastic", "/usr/bin/blender");
   ASSERT_TRUE(fs::exists(blend));
 
   // A latlong:4 session (53 views) at 256 x 192, the demo's field of view, lens distortion on, Cycles 16 samples a
   // pixel, three exposures; no markers (the poses are the truth's).
-  CaptureRequest req;
-  req.out_dir = dir.path() / "session";
-  req.rig_config = {
-      {"stage", {{"backend", "sim"}}},
-      {"camera",
-       {{"backend", "blender"},
-        {"executable", "/usr/bin/blender"},
-        {"samples", 16},
-        {"blend", blend.string()},
-        {"markers", false}}},
-      {"light", {{"backend", "sim"}}},
-      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 256}, {"height", 192}, {"fx", 320.0}, {"fy", 320.0}}}}}};
-  req.scheme = "latlong:4";
-  req.exposures_s = {1.0, 0.25, 0.0625};
+  CaptureRequest req = test_blender::blender_capture_request(dir.path() / "session", blend, "latlong:4");
+  req.rig_config["camera"]["executable"] = "/usr/bin/blender";
+  req.rig_config["camera"]["markers"] = false;
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
   const int n = static_cast<int>(session->manifest().views.size());

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "blender_session.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/rig/kinematics.hpp"
 #include "vdrig/sim/sim_rig.hpp"
@@ -20,9 +21,7 @@ namespace vdrig::pipeline {
 namespace {
 namespace fs = std::filesystem;
 
-double since_s(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
+using test_blender::since_s;
 
 TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   if (std::system("command -v blender >/dev/null 2>&1") != 0) GTEST_SKIP() << "blender is not installed";
@@ -30,23 +29,9 @@ TEST(BlenderSession, CalibratedChainPredictsHeldOutViews) {
   const auto t0 = std::chrono::steady_clock::now();
   // The target sample: a textured, clearcoated plastic, a .blend of Principled BSDF (scripts/blender_scenes.py)
   // whose clearcoat lobe and Fresnel no vdrig model has.
-  const fs::path blend = dir.path() / "textured_clearcoat_plastic.blend";
-  const std::string make = "blender --background --factory-startup --python " +
-                           (fs::path(VDRIG_SOURCE_DIR) / "scripts" / "blender_scenes.py").string() + " -- " +
-                           dir.path().string() + " textured_clearcoat_plastic >/dev/null 2>&1";
-  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  const fs::path blend = test_blender::make_sample_blend(dir.path(), "textured_clearcoat_plastic");
   ASSERT_TRUE(fs::exists(blend));
-  CaptureRequest req;
-  req.out_dir = dir.path() / "session";
-  // The demo's field of view at 256 x 192, lens distortion on; Cycles at 16 samples a pixel. The .blend's surface
-  // is 1 m square, vdrig's corner markers added (the built-in scenes' layout, which the "scene" key gives).
-  req.rig_config = {
-      {"stage", {{"backend", "sim"}}},
-      {"camera", {{"backend", "blender"}, {"samples", 16}, {"blend", blend.string()}}},
-      {"light", {{"backend", "sim"}}},
-      {"sim", {{"scene", "patchwork"}, {"camera", {{"width", 256}, {"height", 192}, {"fx", 320.0}, {"fy", 320.0}}}}}};
-  req.scheme = "latlong:3";
-  req.exposures_s = {1.0, 0.25, 0.0625};
+  CaptureRequest req = test_blender::blender_capture_request(dir.path() / "session", blend, "latlong:3");
   auto session = capture_session(req);
   ASSERT_TRUE(session) << session.error().describe();
   const int n = static_cast<int>(session->manifest().views.size());

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "ggx_scene.hpp"
 #include "hemisphere_support.hpp"
 #include "rig_observations.hpp"
 #include "vdrig/fitting/fit_map.hpp"
@@ -48,18 +49,7 @@ TEST(GgxModel, IsTheSimulatorsBrdf) {
   EXPECT_EQ(GgxModel::brdf({Vec3d::Ones(), Vec3d::Ones(), 0.5}, Vec3d(0.6, 0, -0.8), Vec3d::UnitZ()), Vec3d::Zero());
 }
 
-/// The simulator's `bands` surface made of one GGX material under its single point light.
-sim::Scene ggx_scene(const Vec3d& kd, const Vec3d& f0, double alpha) {
-  sim::Scene scene = sim::make_scene("bands").value();
-  sim::Material ggx{"ggx", kd};
-  ggx.kind = sim::MaterialKind::kGgx;
-  ggx.roughness = alpha;
-  ggx.f0 = f0;
-  scene.materials = {ggx};
-  scene.patches.clear();
-  scene.markers.clear();
-  return scene;
-}
+using test_support::ggx_scene;
 
 /// The scene's light as SessionLight takes it (metres; E = I cos / d^2 with d in metres: I scaled by 1e-6).
 SessionLight light_of(const sim::Scene& scene) {

@@ -9,7 +9,8 @@
 # in Blender's frame (Z up, metres; the importer maps glTF's Y up to it). The light is a Cycles point light of radius
 # 0. Each view is rendered (no denoising, box filter one pixel wide, Standard view transform, transparent film) and
 # written as raw float32 RGBA, bottom row first, to out_dir/view_K.f32. Prints one JSON line of facts on stdout;
-# exits 1 with the reason on a failure. This file is vdrig's own code.
+# exits 1 with the reason on a failure. Its functions also serve tests/fidelity/blender_roundtrip.py (which imports
+# this file as a module: main runs only as Blender's script). This file is vdrig's own code.
 import json
 import math
 import os
@@ -81,29 +82,83 @@ def fresnel_free(material, on):
     tree.links.new((add if on else principled).outputs[0], out.inputs["Surface"])
 
 
-def main():
-    job = json.load(open(sys.argv[sys.argv.index("--") + 1]))
+def require_numpy():
+    """The importer needs numpy (Debian's blender does not depend on python3-numpy): exits 3 with VDRIG_SKIP without
+    it. Debian 12's blender 3.4.1 importer calls numpy.bool, an alias numpy 1.24 (Debian 12's) removed: restored."""
     try:
-        import numpy  # noqa: F401 (the importer needs it; Debian's blender does not depend on python3-numpy)
+        import numpy
     except ImportError:
         print("VDRIG_SKIP Blender's Python has no numpy (scripts/setup installs python3-numpy)")
         sys.stdout.flush()
         os._exit(3)
-    # Debian 12's blender 3.4.1 importer calls numpy.bool, an alias numpy 1.24 (Debian 12's) removed: restore it.
     if not hasattr(numpy, "bool"):
         numpy.bool = bool
+
+
+def import_gltf(gltf_file):
+    """An empty scene holding the .gltf as Blender's own importer reads it, without lights or cameras (an export holds
+    none; be sure). Returns the scene and the first mesh's material."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     if not hasattr(bpy.ops.import_scene, "gltf"):
         raise RuntimeError("this Blender has no glTF importer (io_scene_gltf2)")
-    bpy.ops.import_scene.gltf(filepath=job["gltf"])
-    for obj in list(scene.objects):  # the export holds no lights or cameras; be sure
+    bpy.ops.import_scene.gltf(filepath=gltf_file)
+    for obj in list(scene.objects):
         if obj.type in ("LIGHT", "CAMERA"):
             bpy.data.objects.remove(obj)
     meshes = [o for o in scene.objects if o.type == "MESH"]
     if not meshes or not meshes[0].active_material:
         raise RuntimeError("the import holds no mesh with a material")
-    material = meshes[0].active_material
+    return scene, meshes[0].active_material
+
+
+def setup_cycles(scene, job, max_bounces):
+    """Cycles on the CPU at job's samples a pixel, no adaptive sampling or denoising, seed 1, box filter one pixel
+    wide, two threads, job's width x height, transparent film, float RGBA EXR, Standard view transform."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = int(job.get("samples", 16))
+    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.use_denoising = False
+    scene.cycles.seed = 1
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.cycles.filter_width = 1.0
+    scene.cycles.max_bounces = max_bounces
+    scene.cycles.light_sampling_threshold = 0.0
+    scene.render.threads_mode = "FIXED"
+    scene.render.threads = 2
+    scene.render.resolution_x = int(job["width"])
+    scene.render.resolution_y = int(job["height"])
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = True
+    scene.render.use_compositing = False
+    scene.render.use_sequencer = False
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_mode = "RGBA"
+    scene.render.image_settings.color_depth = "32"
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+
+
+def render_f32(scene, out_dir, name):
+    """Renders the scene's camera to out_dir/NAME.exr and writes its linear RGBA as raw float32, bottom row first, to
+    out_dir/NAME.f32."""
+    import numpy
+    exr = os.path.join(out_dir, name + ".exr")
+    scene.render.filepath = exr
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(exr)
+    image.colorspace_settings.name = "Non-Color"  # the EXR's linear values as they are
+    pixels = numpy.empty(len(image.pixels), dtype=numpy.float32)
+    image.pixels.foreach_get(pixels)
+    pixels.tofile(os.path.join(out_dir, name + ".f32"))
+    bpy.data.images.remove(image)
+
+
+def main():
+    job = json.load(open(sys.argv[sys.argv.index("--") + 1]))
+    require_numpy()
+    scene, material = import_gltf(job["gltf"])
     principled = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
 
     light_data = bpy.data.lights.new("vdrig_light", "POINT")
@@ -121,30 +176,7 @@ def main():
     scene.collection.objects.link(cam)
     scene.camera = cam
     scene.world = None  # no ambient light: the point light alone, as three.js's scene
-
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = int(job.get("samples", 16))
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = False
-    scene.cycles.seed = 1
-    scene.cycles.pixel_filter_type = "BOX"
-    scene.cycles.filter_width = 1.0
-    scene.cycles.max_bounces = 1
-    scene.cycles.light_sampling_threshold = 0.0
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = 2
-    scene.render.resolution_x = int(job["width"])
-    scene.render.resolution_y = int(job["height"])
-    scene.render.resolution_percentage = 100
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_mode = "RGBA"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
+    setup_cycles(scene, job, max_bounces=1)
 
     start = time.monotonic()
     for k, v in enumerate(job["views"]):
@@ -153,16 +185,7 @@ def main():
         cam_data.angle = math.radians(v["fov_y_deg"])
         negate_green(material, bool(v.get("flip_green", False)))
         fresnel_free(material, bool(v.get("fresnel_free", False)))
-        exr = os.path.join(job["out_dir"], "view_%d.exr" % k)
-        scene.render.filepath = exr
-        bpy.ops.render.render(write_still=True)
-        image = bpy.data.images.load(exr)
-        image.colorspace_settings.name = "Non-Color"  # the EXR's linear values as they are
-        import numpy
-        pixels = numpy.empty(len(image.pixels), dtype=numpy.float32)
-        image.pixels.foreach_get(pixels)
-        pixels.tofile(os.path.join(job["out_dir"], "view_%d.f32" % k))
-        bpy.data.images.remove(image)
+        render_f32(scene, job["out_dir"], "view_%d" % k)
     facts = {"blender": bpy.app.version_string, "render_s": time.monotonic() - start,
              "material": material.name, "normal_map": any(n.type == "NORMAL_MAP" for n in material.node_tree.nodes)}
     if principled is not None:
@@ -172,11 +195,17 @@ def main():
     print("VDRIG_RESULT " + json.dumps(facts))
 
 
-try:
-    main()
-except Exception as e:  # the reason on stderr, exit 1: the test shows it
-    sys.stderr.write("blender_render.py: %s\n" % e)
+def run(main, script):
+    """Runs a script's main and ends Blender: exit 0, or 1 with the reason on stderr (the test shows it)."""
+    try:
+        main()
+    except Exception as e:
+        sys.stderr.write("%s: %s\n" % (script, e))
+        sys.stdout.flush()
+        os._exit(1)
     sys.stdout.flush()
-    os._exit(1)
-sys.stdout.flush()
-os._exit(0)
+    os._exit(0)
+
+
+if __name__ == "__main__":  # Blender's script, not blender_roundtrip.py's import
+    run(main, "blender_render.py")

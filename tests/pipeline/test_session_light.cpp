@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "../fitting/ggx_scene.hpp"
 #include "../fitting/rig_observations.hpp"
 #include "vdrig/capture/session.hpp"
 #include "vdrig/fitting/fit_map.hpp"
@@ -24,18 +25,7 @@
 namespace vdrig::pipeline {
 namespace {
 
-/// The simulator's `bands` surface (1 m, its one point light at (1.5, 1.5, 2) m) made of one GGX material.
-sim::Scene ggx_scene(const Vec3d& kd, const Vec3d& f0, double alpha) {
-  sim::Scene scene = sim::make_scene("bands").value();
-  sim::Material ggx{"ggx", kd};
-  ggx.kind = sim::MaterialKind::kGgx;
-  ggx.roughness = alpha;
-  ggx.f0 = f0;
-  scene.materials = {ggx};
-  scene.patches.clear();
-  scene.markers.clear();
-  return scene;
-}
+using fitting::test_support::ggx_scene;
 
 /// An S x S map from icosahedron:3@85 (camera at 2500 mm), each texel recorded by the 8-bit camera (shot and read
 /// noise, rounding; sim::TexelRecording's defaults), as tests/fitting/test_ggx.cpp records it.
