@@ -415,6 +415,7 @@ class BlenderCamera final : public rig::Camera {
     Frame frame;
     ViewPose pose;
     bool light_on = true;
+    uint64_t noise_key = 0;
     {
       std::lock_guard lock(world_->mutex);
       pose = world_->pose();
@@ -422,6 +423,7 @@ class BlenderCamera final : public rig::Camera {
       frame.gain = world_->gain;
       frame.measured = frame.commanded = world_->position;
       frame.sequence = world_->frame_sequence++;
+      noise_key = world_->noise_key(frame.sequence);
       light_on = world_->light_on;
     }
     const auto& c = world_->config;
@@ -445,7 +447,7 @@ class BlenderCamera final : public rig::Camera {
       cached_position_ = frame.measured;
       cached_light_on_ = light_on;
     }
-    frame.image = expose(cached_, frame.exposure_s, frame.gain, c.sensor, frame.sequence);
+    frame.image = expose(cached_, frame.exposure_s, frame.gain, c.sensor, noise_key);
     return frame;
   }
 

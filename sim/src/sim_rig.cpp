@@ -1,6 +1,7 @@
 #include "vdrig/sim/sim_rig.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -19,6 +20,29 @@
 namespace vdrig::sim {
 
 using nlohmann::json;
+
+namespace {
+
+uint64_t mix64(uint64_t h, uint64_t v) {  // splitmix64's finaliser over h ^ v: every input bit reaches every output bit
+  uint64_t z = (h ^ v) + 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+uint64_t bits_of(double x) { return std::bit_cast<uint64_t>(x == 0.0 ? 0.0 : x); }  // -0 and +0 are one position
+
+}  // namespace
+
+uint64_t SimWorld::noise_key(uint64_t sequence) const {
+  if (!config.noise_by_shot) return sequence;
+  // expose() mixes the sensor seed in itself; the key is what is shot. A bracket's frames differ by their exposure.
+  uint64_t h = mix64(0, bits_of(position.pan_rad));
+  h = mix64(h, bits_of(position.tilt_rad));
+  h = mix64(h, bits_of(exposure_s));
+  h = mix64(h, bits_of(gain));
+  return mix64(h, light_on ? 1 : 0);
+}
 
 bool SimFaults::any() const {
   return !move_timeout_at.empty() || !drive_error_at.empty() || !drop_frame_at.empty() ||
@@ -55,7 +79,7 @@ void read_faults(Settings& parent, const json& section, SimFaults& f) {
 void read_camera(Settings& parent, const json& section, SimConfig& c) {
   Settings s(section, "camera");
   s.reject_unknown({"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "bits", "response",
-                    "full_well_e", "read_noise_e", "vignetting"});
+                    "full_well_e", "read_noise_e", "vignetting", "noise_seed"});
   CameraModel& m = c.camera;
   m.width = static_cast<int>(s.integer("width", m.width, 1, SimConfig::kMaxCameraSide));
   m.height = static_cast<int>(s.integer("height", m.height, 1, SimConfig::kMaxCameraSide));
@@ -76,6 +100,7 @@ void read_camera(Settings& parent, const json& section, SimConfig& c) {
   c.sensor.full_well_e = s.number("full_well_e", kDefaultFullWellE);
   c.sensor.read_noise_e = s.number("read_noise_e", c.sensor.full_well_e > 0 ? kDefaultReadNoiseE : 0.0);
   c.sensor.vignetting = s.number("vignetting", 0.0);
+  c.noise_by_shot = s.string("noise_seed", "sequence", {"sequence", "shot"}) == "shot";
   parent.absorb(s);
 }
 
@@ -292,6 +317,7 @@ class SimCamera final : public rig::Camera {
     ViewPose pose;
     Frame frame;
     bool light_on = true;
+    uint64_t noise_key = 0;
     const auto& c = world_->config;
     if (follow_) {
       // A real stage with the simulated camera: the picture shows where that stage says it is.
@@ -317,6 +343,7 @@ class SimCamera final : public rig::Camera {
       frame.measured = world_->position;
       frame.commanded = world_->position;
       frame.sequence = world_->frame_sequence++;
+      noise_key = world_->noise_key(frame.sequence);
       light_on = world_->light_on;
       if (!world_->rays || !world_->rays->matches(c.camera, c.samples_per_axis))
         world_->rays = std::make_shared<const RayTable>(c.camera, c.samples_per_axis);
@@ -337,7 +364,7 @@ class SimCamera final : public rig::Camera {
       cached_position_ = frame.measured;
       cached_light_on_ = light_on;
     }
-    frame.image = expose(cached_, frame.exposure_s, frame.gain, c.sensor, frame.sequence);
+    frame.image = expose(cached_, frame.exposure_s, frame.gain, c.sensor, noise_key);
     return frame;
   }
 

@@ -5,6 +5,7 @@
 #include "vdrig/rig/motion.hpp"
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 
 #include "vdrig/rig/bringup.hpp"
@@ -318,6 +319,51 @@ TEST(SimFaults, SlowWritesAndDeterminism) {
   ASSERT_TRUE(fa && fb);
   EXPECT_EQ(cv::norm(fa->image, fb->image, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(fa->image, a.camera->capture()->image, cv::NORM_INF), 0.0);  // next frame: new noise
+}
+
+TEST(SimCamera, NoiseSeededByTheShotRepeatsAcrossRigsAndDiffersBetweenPoses) {
+  const auto noisy = [](const std::string& noise_seed) {
+    return small_sim({{"seed", 9},
+                      {"camera",
+                       {{"width", 64},
+                        {"height", 48},
+                        {"fx", 40.0},
+                        {"fy", 40.0},
+                        {"full_well_e", 3000},
+                        {"read_noise_e", 2},
+                        {"noise_seed", noise_seed}}}});
+  };
+  const PanTilt p{0.3, 0.5}, q{0.3 + 1e-9, 0.5};  // q: a pose that renders alike, shot by its own noise
+  const auto shoot = [](rig::Rig& r, const PanTilt& at, double exposure_s) {
+    EXPECT_TRUE(r.stage->move_to(at));
+    EXPECT_TRUE(r.camera->set_exposure(exposure_s, 1.0));
+    auto f = r.camera->capture();
+    EXPECT_TRUE(f) << f.error().describe();
+    return f ? f.value() : Frame{};
+  };
+  // Rig a shoots p first; rig b (a resumed process) shoots other frames before: p is still bit-identical.
+  rig::Rig a = make(noisy("shot")), b = make(noisy("shot"));
+  const Frame a_p = shoot(a, p, 0.01);
+  shoot(b, q, 0.01);
+  shoot(b, p, 0.005);
+  const Frame b_p = shoot(b, p, 0.01);
+  EXPECT_NE(a_p.sequence, b_p.sequence);  // the frame counter still counts (a gap still shows)
+  EXPECT_EQ(cv::norm(a_p.image, b_p.image, cv::NORM_INF), 0.0);
+  // Another pose, rendered alike (q is 1e-9 rad from p): the codes differ by other noise, in most pixels.
+  const auto differing = [](const cv::Mat& x, const cv::Mat& y) {
+    cv::Mat ne;
+    cv::compare(x.reshape(1), y.reshape(1), ne, cv::CMP_NE);
+    return cv::countNonZero(ne) / static_cast<double>(ne.total());
+  };
+  const double other_pose = differing(a_p.image, shoot(a, q, 0.8).image);
+  EXPECT_GT(other_pose, 0.5);
+  // Under the default seeding the same shot after another frame has other noise (what a resumed capture met).
+  rig::Rig c = make(noisy("sequence")), d = make(noisy("sequence"));
+  shoot(d, q, 0.8);
+  const double resumed = differing(shoot(c, p, 0.8).image, shoot(d, p, 0.8).image);
+  EXPECT_GT(resumed, 0.5);
+  std::printf("codes differing: another pose %.3f, default seeding after another frame %.3f\n", other_pose, resumed);
+  EXPECT_FALSE(SimConfig::from_json({{"camera", {{"noise_seed", "random"}}}}));
 }
 
 TEST(SimConfig, CameraSizeIsLimited) {

@@ -12,7 +12,8 @@
 //                       every rig built from the config starts at 0, 0),
 //     "camera": { "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 319.5, "cy": 239.5,
 //                 "k1": -0.08, "k2": 0.02, "p1": 0, "p2": 0, "k3": 0, "bits": 8,
-//                 "response": "s-curve" | "linear", "full_well_e": 20000, "read_noise_e": 8, "vignetting": 0 },
+//                 "response": "s-curve" | "linear", "full_well_e": 20000, "read_noise_e": 8, "vignetting": 0,
+//                 "noise_seed": "sequence" | "shot" (see SimConfig::noise_by_shot) },
 //     "stage": { "pan_min_deg": -360, "pan_max_deg": 360, "tilt_min_deg": -5, "tilt_max_deg": 85,
 //                "speed_deg_s": 30, "accel_deg_s2": 60 },
 //     "faults": { see SimFaults } }
@@ -71,6 +72,10 @@ struct SimConfig {
   /// every move and home, read when the rig is built), as a real drive's encoders keep theirs: `vdrig rig move` and
   /// then `vdrig rig position` read the same position. Empty: not kept, each built rig starts at 0, 0.
   std::string state_file;
+  /// camera "noise_seed": "shot" seeds each frame's sensor noise by what is shot (seed, stage position, exposure,
+  /// gain, light) instead of the process's frame counter ("sequence", the default): a frame shot again, or in another
+  /// process (a resumed capture), is bit-identical. Identical shots then have identical noise (a real camera's do not).
+  bool noise_by_shot = false;
 
   SimConfig();
   /// Reads the "sim" section; unknown keys are rejected so a typo does not silently fall back to a default.
@@ -97,6 +102,8 @@ struct SimWorld {
   std::shared_ptr<const RayTable> rays;  // per-camera ray table, built at the first capture
 
   ViewPose pose() const { return rig::surface_pose(config.geometry, position); }
+  /// What seeds the noise of the frame shot now with this `sequence` (config.noise_by_shot). Caller holds the mutex.
+  uint64_t noise_key(uint64_t sequence) const;
 };
 
 /// What the simulated `kind` ("stage", "camera", "light") declares to the registry: it reads the shared "sim"
