@@ -1,14 +1,16 @@
 // Adaptive sampling (capture/adaptive.hpp, pipeline/adaptive_stage.hpp) on a small simulated scene with one narrow
 // highlight: the batches go into the highlight's cone where a uniform scheme of the same size misses it; budgets are
-// never exceeded; SIGKILL at random moments and resuming gives the same views as an uninterrupted run; bad settings
-// are refused naming the reason. The planner projects with the simulator's TRUE camera (written as camera.yml):
+// never exceeded; SIGKILL at random moments and resuming gives the same views as an uninterrupted run (noiseless, and
+// with noise seeded by the shot: docs/sim.md); bad settings are refused naming the reason. The planner projects with the simulator's TRUE camera (written as camera.yml):
 // the test is not about calibration.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <random>
 #include <thread>
@@ -53,24 +55,21 @@ struct AdaptiveRig {
   fs::path camera_yml;
 };
 
-AdaptiveRig make_setup(const std::string& name) {
+/// `noise_seed` empty: a noiseless sensor; else strong noise (a 300 e- well, 8 e- read noise) seeded that way
+/// (docs/sim.md). Strong, because the planner's picks survive the default 20000 e- well's noise: killed and resumed
+/// under the default seeding, 0 of 35 views differed at seeds 1 and 2; with 300 e- and seed 2, 10 of 35.
+AdaptiveRig make_setup(const std::string& name, const std::string& noise_seed = "") {
   AdaptiveRig s;
   s.root = test::fresh_temp_dir("adaptive_" + name);
   const fs::path scene = write_scene(s.root);
-  s.rig_config = sim::sim_rig_config({{"scene", scene.string()},
-                                      {"samples_per_axis", 1},
-                                      {"camera",
-                                       {{"width", 160},
-                                        {"height", 120},
-                                        {"fx", 800},
-                                        {"fy", 800},
-                                        {"cx", 79.5},
-                                        {"cy", 59.5},
-                                        {"k1", 0},
-                                        {"k2", 0},
-                                        {"response", "linear"},
-                                        {"full_well_e", 0},
-                                        {"read_noise_e", 0}}}});
+  json sensor = {{"width", 160}, {"height", 120}, {"fx", 800}, {"fy", 800},           {"cx", 79.5},
+                 {"cy", 59.5},   {"k1", 0},       {"k2", 0},   {"response", "linear"}};
+  if (noise_seed.empty())
+    sensor.update({{"full_well_e", 0}, {"read_noise_e", 0}});
+  else
+    sensor.update({{"noise_seed", noise_seed}, {"full_well_e", 300}});
+  s.rig_config =
+      sim::sim_rig_config({{"scene", scene.string()}, {"seed", 2}, {"samples_per_axis", 1}, {"camera", sensor}});
   // The simulator's true intrinsics: this test is about planning, not calibration.
   CameraModel camera{160, 120, 800.0, 800.0, 79.5, 59.5, 0, 0, 0, 0, 0};
   s.camera_yml = s.root / "camera.yml";
@@ -244,52 +243,83 @@ std::vector<Vec3d> view_directions(const fs::path& dir) {
   return d;
 }
 
-TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
+/// Kills the session's capture at random moments (seeded) until it stops, resumes it, and compares its views with an
+/// uninterrupted run's: the same directions (1e-12) in the same order, each complete once in the journal. Returns the
+/// number of views that differ (0 expected).
+int killed_and_resumed_differ(const AdaptiveRig& s, int* kills) {
   const auto t0 = std::chrono::steady_clock::now();
-  const AdaptiveRig s = make_setup("kill");
   const std::string scheme = spec(s, "35,base=icosahedron:1@85,batch=5,gain=0");
   const fs::path reference = create(s, "reference", scheme);
-  ASSERT_TRUE(run(reference));
+  EXPECT_TRUE(run(reference));
   const std::vector<Vec3d> expected = view_directions(reference);
-  ASSERT_EQ(expected.size(), 35u);
+  EXPECT_EQ(expected.size(), 35u);
 
   const fs::path dir = create(s, "killed", scheme);
   const fs::path journal = capture::SessionLayout(dir).journal_file();
   std::mt19937 rng(7);
   std::uniform_int_distribution<std::uintmax_t> grow(1, 4000);
   std::uniform_int_distribution<int> extra_us(0, 20000);
-  int kills = 0;
+  *kills = 0;
   for (int round = 0; round < 40; ++round) {
     const std::uintmax_t target = fs::file_size(journal) + grow(rng);
     const auto status = vdrig::test::kill_when_grown([&] { return run(dir); }, journal, target,
                                                      [&] { return extra_us(rng); }, std::chrono::seconds(20));
-    ASSERT_TRUE(status) << "fork failed";
+    EXPECT_TRUE(status) << "fork failed";
+    if (!status) return -1;
     if (WIFSIGNALED(*status)) {
-      ++kills;
+      ++*kills;
     } else {
-      ASSERT_EQ(WEXITSTATUS(*status), 0);
+      EXPECT_EQ(WEXITSTATUS(*status), 0);
       auto after = capture::Session::open(dir);
-      ASSERT_TRUE(after);
-      if (capture::adaptive_progress(after.value()).stopped) break;
+      EXPECT_TRUE(after);
+      if (!after || capture::adaptive_progress(after.value()).stopped) break;
     }
   }
-  ASSERT_TRUE(run(dir));
+  EXPECT_TRUE(run(dir));
   const std::vector<Vec3d> got = view_directions(dir);
-  ASSERT_EQ(got.size(), expected.size());
-  for (size_t i = 0; i < got.size(); ++i) EXPECT_LT((got[i] - expected[i]).norm(), 1e-12) << "view " << i;
+  EXPECT_EQ(got.size(), expected.size());
+  int differ = 0;
+  for (size_t i = 0; i < std::min(got.size(), expected.size()); ++i)
+    if (!((got[i] - expected[i]).norm() < 1e-12)) ++differ;
   // Each view complete exactly once in the journal.
   std::vector<int> completions(got.size(), 0);
   std::ifstream in(journal);
   std::string line;
   while (std::getline(in, line)) {
     const json j = json::parse(line, nullptr, false);
-    ASSERT_FALSE(j.is_discarded());
-    if (j.value("type", "") == "view_complete") ++completions.at(j.at("view").get<size_t>());
+    EXPECT_FALSE(j.is_discarded());
+    if (!j.is_discarded() && j.value("type", "") == "view_complete") ++completions.at(j.at("view").get<size_t>());
   }
   for (size_t v = 0; v < got.size(); ++v) EXPECT_EQ(completions[v], 1) << "view " << v;
-  EXPECT_GE(kills, 5);
-  std::printf("%d kills, %.1f s\n", kills,
+  std::printf("%d kills, %d of %zu views differ, %.1f s\n", *kills, differ, expected.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  return differ;
+}
+
+TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
+  const AdaptiveRig s = make_setup("kill");
+  int kills = 0;
+  EXPECT_EQ(killed_and_resumed_differ(s, &kills), 0);
+  EXPECT_GE(kills, 5);
+  fs::remove_all(s.root);
+}
+
+// With sensor noise on, later batches are planned from noisy images: a resumed process must shoot the same noise,
+// which the simulator's "noise_seed": "shot" gives (seeded by what is shot, not by the process's frame counter).
+TEST(Adaptive, WithNoiseSeededByTheShotSigkillAndResumeGiveTheSameViews) {
+  const AdaptiveRig s = make_setup("kill_noise", "shot");
+  int kills = 0;
+  EXPECT_EQ(killed_and_resumed_differ(s, &kills), 0);
+  EXPECT_GE(kills, 5);
+  fs::remove_all(s.root);
+}
+
+// The contrast (run with --gtest_also_run_disabled_tests; docs/sim.md): noise seeded by the frame counter, the default,
+// gives a resumed process other noise, and the views diverge.
+TEST(Adaptive, DISABLED_WithNoiseSeededByTheFrameCounterResumedViewsDiverge) {
+  const AdaptiveRig s = make_setup("kill_noise_sequence", "sequence");
+  int kills = 0;
+  EXPECT_GT(killed_and_resumed_differ(s, &kills), 0);
   fs::remove_all(s.root);
 }
 
