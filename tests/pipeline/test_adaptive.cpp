@@ -1,8 +1,8 @@
 // Adaptive sampling (capture/adaptive.hpp, pipeline/adaptive_stage.hpp) on a small simulated scene with one narrow
 // highlight: the batches go into the highlight's cone where a uniform scheme of the same size misses it; budgets are
 // never exceeded; SIGKILL at random moments and resuming gives the same views as an uninterrupted run (noiseless, and
-// with noise seeded by the shot: docs/sim.md); bad settings are refused naming the reason. The planner projects with the simulator's TRUE camera (written as camera.yml):
-// the test is not about calibration.
+// with noise seeded by the shot: docs/sim.md); bad settings are refused naming the reason. The planner projects with
+// the simulator's TRUE camera (written as camera.yml): the test is not about calibration.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
