@@ -79,7 +79,16 @@ await runInChromium(options, async (page) => {
     for (let i = 0; i < px.length; i += 4) if (px[i + 1] > 100 && px[i] < 90 && px[i + 2] < 90) green += 1;
     return { done: Number(c.dataset.done), views: Number(c.dataset.views), greenPixels: green };
   });
-  await page.waitForFunction(() => document.getElementById('thumbnail').naturalWidth > 0);
+  // The thumbnail ends on the session's last frame: the last "view V frame B" line of the journal's tail, once that
+  // view is complete (a thumbnail asked for mid-session may still be on its way: wait for it, do not sample it).
+  await page.waitForFunction(() => {
+    const img = document.getElementById('thumbnail');
+    const log = document.getElementById('log-tail').textContent;
+    const frames = [...log.matchAll(/view (\d+) frame (\d+)/g)];
+    if (img.naturalWidth === 0 || frames.length === 0) return false;
+    const [, v, b] = frames[frames.length - 1];
+    return log.trimEnd().endsWith(`view ${v} complete`) && img.dataset.view === v && img.dataset.bracket === b;
+  });
   seen.thumbnail = await page.$eval('#thumbnail', (img) => {
     const c = document.createElement('canvas');
     c.width = img.naturalWidth;
@@ -97,12 +106,6 @@ await runInChromium(options, async (page) => {
              mean: sum / (px.length / 4), min, max };
   });
   seen.thumbnailText = await text('#thumbnail-text');
-  // The thumbnail ends on the session's last frame, and the journal's tail reaches that view's completion.
-  await page.waitForFunction(() => {
-    const v = document.getElementById('thumbnail').dataset.view;
-    return document.getElementById('log-tail').textContent.includes(`view ${v} complete`);
-  });
-  seen.thumbnail.view = await page.$eval('#thumbnail', (img) => Number(img.dataset.view));
   seen.logTail = await text('#log-tail');
   seen.drive = await text('#drive-text');
   seen.camera = await text('#camera-text');
