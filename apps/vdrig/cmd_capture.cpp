@@ -103,7 +103,7 @@ Status run(const CaptureArgs& a) {
       plan.surface_height_mm = surface.value()->height_mm;
     }
     // Adaptive sampling needs its planner (a build with the pipeline): refused before anything is made.
-    if (capture::is_adaptive_scheme(a.scheme)) VDRIG_TRY(capture::check_adaptive_capture(a.scheme, a.out));
+    if (capture::is_adaptive_scheme(a.scheme)) VDRIG_TRY(capture::check_adaptive_capture(a.scheme, a.out, rc));
     auto manifest =
         capture::is_adaptive_scheme(a.scheme) ? capture::plan_adaptive_manifest(plan) : capture::plan_manifest(plan);
     if (!manifest) return manifest.error();

@@ -60,6 +60,8 @@ bool AdaptiveSettings::is_valid(std::string* why) const {
   if (patience < 1 || patience > 100) reasons.push_back("patience must be in 1..100");
   if (!(coverage_weight >= 0 && coverage_weight <= 100)) reasons.push_back("coverage must be in [0, 100]");
   if (!(move_weight_s > 0)) reasons.push_back("move_s must be > 0");
+  if (model != "phong" && model != "ggx")
+    reasons.push_back("model must be phong or ggx (the planner's per-texel model), got \"" + model + "\"");
   const std::string base_spec = base_scheme();
   if (is_adaptive_scheme(base_spec)) {
     reasons.push_back("base must be a fixed scheme, not adaptive");
@@ -83,7 +85,7 @@ std::string AdaptiveSettings::to_spec() const {
   if (base != d.base) s += ",base=" + base;
   if (batch != d.batch) s += ",batch=" + std::to_string(batch);
   if (max_move_s != d.max_move_s) s += fmt::format(",time_s={:g}", max_move_s);
-  if (res != d.res) s += ",res=" + std::to_string(res);
+  if (res != default_res(model)) s += ",res=" + std::to_string(res);
   if (max_zenith_deg != d.max_zenith_deg) s += fmt::format(",zenith={:g}", max_zenith_deg);
   if (min_gain != d.min_gain) s += fmt::format(",gain={:g}", min_gain);
   if (patience != d.patience) s += ",patience=" + std::to_string(patience);
@@ -92,6 +94,7 @@ std::string AdaptiveSettings::to_spec() const {
   if (seed != d.seed) s += ",seed=" + std::to_string(seed);
   if (!camera.empty()) s += ",camera=" + camera;
   if (ahead != d.ahead) s += ",ahead=" + std::to_string(ahead);
+  if (model != d.model) s += ",model=" + model;
   return s;
 }
 
@@ -109,7 +112,8 @@ nlohmann::json AdaptiveSettings::to_json() const {
           {"move_s", move_weight_s},
           {"seed", seed},
           {"camera", camera},
-          {"ahead", ahead}};
+          {"ahead", ahead},
+          {"model", model}};
 }
 
 bool is_adaptive_scheme(std::string_view spec) { return spec.rfind("adaptive:", 0) == 0; }
@@ -132,6 +136,7 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
   if (!parse_int(items[0], &n)) return bad("N must be a whole number of views, got \"" + std::string(items[0]) + "\"");
   a.max_views = static_cast<int>(std::clamp<int64_t>(n, -1, 1 << 30));
   std::vector<std::string> reasons;
+  bool res_given = false;
   for (size_t i = 1; i < items.size(); ++i) {
     const std::string_view item = items[i];
     const size_t eq = item.find('=');
@@ -161,9 +166,10 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
       whole(&a.batch);
     else if (key == "time_s")
       number(&a.max_move_s);
-    else if (key == "res")
+    else if (key == "res") {
       whole(&a.res);
-    else if (key == "zenith")
+      res_given = true;
+    } else if (key == "zenith")
       number(&a.max_zenith_deg);
     else if (key == "gain")
       number(&a.min_gain);
@@ -177,6 +183,8 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
       a.camera = std::string(value);
     else if (key == "ahead")
       whole(&a.ahead);
+    else if (key == "model")
+      a.model = std::string(value);
     else if (key == "seed") {
       if (parse_int(value, &k) && k >= 0)
         a.seed = static_cast<uint64_t>(k);
@@ -184,9 +192,11 @@ Result<AdaptiveSettings> parse_adaptive_scheme(std::string_view spec) {
         reasons.push_back("seed must be a whole number >= 0");
     } else {
       reasons.push_back("unknown key \"" + key +
-                        "\" (base, batch, time_s, res, zenith, gain, patience, coverage, move_s, seed, camera, ahead)");
+                        "\" (base, batch, time_s, res, zenith, gain, patience, coverage, move_s, seed, camera, ahead, "
+                        "model)");
     }
   }
+  if (!res_given) a.res = AdaptiveSettings::default_res(a.model);
   std::string why;
   if (!a.is_valid(&why)) reasons.push_back(why);
   if (!reasons.empty()) {
@@ -211,12 +221,13 @@ Result<std::unique_ptr<ViewPlanner>> make_view_planner() {
   return factory()();
 }
 
-Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir) {
+Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir,
+                              const nlohmann::json& rig_config) {
   auto settings = parse_adaptive_scheme(scheme);
   if (!settings) return settings.error();
   auto planner = make_view_planner();
   if (!planner) return planner.error();
-  return planner.value()->check(settings.value(), session_dir);
+  return planner.value()->check(settings.value(), session_dir, rig_config);
 }
 
 double AdaptiveProgress::planned_move_s() const {

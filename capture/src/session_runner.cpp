@@ -96,7 +96,7 @@ Result<Manifest> SessionRunner::start(const std::string& name, const fs::path& d
   VDRIG_TRY(ensure_rig(plan.rig_config, true));
   plan.stage = rig_->stage->spec();
   // Adaptive sampling needs the planner this daemon was built with (the pipeline's): refused before anything is made.
-  if (is_adaptive_scheme(plan.scheme)) VDRIG_TRY(check_adaptive_capture(plan.scheme, dir));
+  if (is_adaptive_scheme(plan.scheme)) VDRIG_TRY(check_adaptive_capture(plan.scheme, dir, plan.rig_config));
   auto manifest = is_adaptive_scheme(plan.scheme) ? plan_adaptive_manifest(plan) : plan_manifest(plan);
   if (!manifest) return manifest.error();
   if (config_.describe_surface) config_.describe_surface(manifest.value());

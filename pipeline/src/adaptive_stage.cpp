@@ -9,8 +9,12 @@
 #include "vdrig/capture/schemes.hpp"
 #include "vdrig/core/camera.hpp"
 #include "vdrig/core/log.hpp"
+#include "vdrig/fitting/fit_map.hpp"
+#include "vdrig/fitting/ggx_model.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/phong.hpp"
+#include "vdrig/pipeline/session_light.hpp"
+#include "vdrig/rig/lamp.hpp"
 
 namespace vdrig::pipeline {
 namespace {
@@ -27,6 +31,11 @@ constexpr int kCandidateRows = 24, kCandidateColumns = 64;
 constexpr double kGapRad = 10.0 * kPi / 180.0, kGapCapRad = 30.0 * kPi / 180.0;
 /// Candidates closer than this to a view taken or chosen are not taken again.
 constexpr double kMinSeparationRad = 1.5 * kPi / 180.0;
+/// model=ggx without a lamp: what to give.
+constexpr std::string_view kGgxNeedsLamp =
+    "adaptive sampling, model=ggx: the planner fits ggx:iso under the session's lamp, and the rig config records "
+    "none: give its \"light\" section the lamp's position (\"position_mm\", docs/hardware.md), or plan with "
+    "model=phong";
 
 double luminance(const Eigen::Vector3f& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
 double luminance(const Vec3d& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
@@ -109,11 +118,168 @@ Result<CameraModel> planner_camera(const capture::AdaptiveSettings& a, const std
   return camera;
 }
 
+/// The lobes of the coarse map's texels that views have to find, and the predicted held-out error's sums: what a
+/// planner model (phong or ggx, AdaptiveSettings::model) gives the rest of the planner, which is the same for both.
+struct TexelLobes {
+  std::vector<TexelLobe> lobes;
+  double err2 = 0, sig2 = 0;  // luminance: (predicted - seen)^2 and seen^2 over the held-out observations
+};
+
+/// Counts the observations inside the lobe's support cone (cos^m >= kLobeSupportLevel).
+void count_in_cone(TexelLobe& tl, const fitting::TexelObservations& all) {
+  const double cone_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / std::max(1.0, tl.shininess));
+  for (size_t i = 0; i < all.size(); ++i)
+    if (all.direction[i].cast<double>().dot(tl.direction) >= cone_cos) tl.in_cone += 1;
+}
+
+/// model=phong: per texel up to kPlannerLobes Phong lobes; the narrow ones.
+Result<TexelLobes> phong_texel_lobes(const fitting::ObservationMap& map, const std::vector<int>& held,
+                                     const capture::AdaptiveSettings& a) {
+  const fitting::ObservationMapSpec& spec = map.spec();
+  TexelLobes out;
+  std::vector<TexelLobe>& lobes = out.lobes;
+  double& err2 = out.err2;
+  double& sig2 = out.sig2;
+  // Two lobes where the texel's observations support them (the fit's BIC and detection rules): a scene lit by two
+  // lights has two highlights per texel, and one lobe would leave the weaker one to the coverage term.
+  fitting::PhongFitOptions phong;
+  phong.lobes = kPlannerLobes;
+  for (int t = 0; t < a.res; ++t)
+    for (int s = 0; s < a.res; ++s) {
+      const fitting::TexelObservations all = map.texel(s, t);
+      if (all.size() < 4) continue;
+      // Predicted error: the fit without the held-out views, at them.
+      const fitting::TexelObservations fit_obs = map.texel(s, t, held);
+      if (fit_obs.size() >= 4 && fit_obs.size() < all.size()) {
+        const fitting::PhongFit before = fitting::fit_phong(fit_obs, phong);
+        for (size_t i = 0; i < all.size(); ++i) {
+          if (!std::binary_search(held.begin(), held.end(), all.view[i])) continue;
+          const double predicted = luminance(before.params.evaluate(all.direction[i].cast<double>()));
+          const double seen = luminance(all.radiance[i]);
+          err2 += (predicted - seen) * (predicted - seen);
+          sig2 += seen * seen;
+        }
+      }
+      const fitting::PhongFit fit = fitting::fit_phong(all, phong);
+      double brightness = luminance(fit.params.kd);
+      for (const auto& lobe : fit.params.lobes) brightness += luminance(lobe.ks);
+      for (const auto& lobe : fit.params.lobes) {
+        // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
+        if (lobe.shininess < kNarrowLobeShininess) continue;
+        TexelLobe tl;
+        tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+        tl.direction = lobe.direction.normalized();
+        tl.shininess = lobe.shininess;
+        tl.weight = luminance(lobe.ks) / std::max(1e-12, brightness);
+        tl.capped = fit.capped_lobes > 0;
+        count_in_cone(tl, all);
+        lobes.push_back(tl);
+      }
+    }
+  return out;
+}
+
+/// The lowest roughness a ggx:iso fit of a texel may take from these views (fitting/src/ggx_model.cpp,
+/// ggx_supported_roughness: D at the half vector nearest the normal at least half its peak): the GGX counterpart of a
+/// Phong lobe's support cap.
+double ggx_roughness_floor(const Vec3d& light, const fitting::TexelObservations& all) {
+  double cos_max = 0.0;
+  for (size_t i = 0; i < all.size(); ++i) {
+    const Vec3d v = all.direction[i].cast<double>().normalized();
+    if (v.z() > 0.0) cos_max = std::max(cos_max, std::min((light + v).normalized().z(), 1.0));
+  }
+  const double sin2 = 1.0 - cos_max * cos_max;
+  const double alpha = std::sqrt(sin2 / (std::sqrt(2.0) - cos_max * cos_max));
+  return std::clamp(std::sqrt(alpha), fitting::GgxModel::kMinRoughness, 1.0);
+}
+
+/// model=ggx: per texel ggx:iso under the lamp the session recorded (one lobe, no Fresnel "lobe" at grazing: the
+/// second Phong lobe spent views on GGX's grazing rise, docs/results.md §11). Its lobe for the planner: axis the
+/// light's mirror direction about the normal; width the Phong shininess of the same support cone,
+/// m = 1 / (2 alpha^2 cos(light zenith)) (D ~ a Cauchy-like bump of half-vector angle alpha, the view turns twice the
+/// half vector, and across the plane of incidence the lobe narrows by cos(light zenith): docs/sampling.md);
+/// weight the lobe's share of the texel's radiance over the hemisphere; capped when the roughness sits at the floor
+/// the views set.
+Result<TexelLobes> ggx_texel_lobes(const capture::Session& session, const fitting::ObservationMap& map,
+                                   const std::vector<int>& held, const capture::AdaptiveSettings& a) {
+  auto recorded = recorded_session_light(session);
+  if (!recorded) return recorded.error();
+  if (!recorded.value()) return make_error(ErrorCode::kInvalidArgument, std::string(kGgxNeedsLamp));
+  const fitting::SessionLight light = recorded.value()->light;
+  const fitting::ObservationMapSpec& spec = map.spec();
+  fitting::MapFitOptions options;
+  options.model = fitting::parse_model("ggx:iso").value();
+  options.model_options.edit<fitting::GgxFitOptions>().light = light;
+  options.threads = 1;  // the planner's other fits run on one thread too; texels are few
+  options.min_observations = 4;
+  TexelLobes out;
+  // Predicted error: the fit without the held-out views, at them.
+  if (!held.empty()) {
+    fitting::MapFitOptions before_options = options;
+    before_options.held_out = held;
+    auto before = fitting::fit_parameter_map(map, before_options);
+    if (!before) return before.error();
+    for (int t = 0; t < a.res; ++t)
+      for (int s = 0; s < a.res; ++s) {
+        if (!(before->at("n", s, t) >= 4)) continue;
+        const std::vector<double> p = before->parameters(s, t);
+        const fitting::TexelObservations all = map.texel(s, t);
+        for (size_t i = 0; i < all.size(); ++i) {
+          if (!std::binary_search(held.begin(), held.end(), all.view[i])) continue;
+          const double predicted = luminance(before->model().evaluate(p, all.direction[i].cast<double>()));
+          const double seen = luminance(all.radiance[i]);
+          out.err2 += (predicted - seen) * (predicted - seen);
+          out.sig2 += seen * seen;
+        }
+      }
+  }
+  auto fitted = fitting::fit_parameter_map(map, options);
+  if (!fitted) return fitted.error();
+  const fitting::ReflectanceModel& model = fitted->model();
+  for (int t = 0; t < a.res; ++t)
+    for (int s = 0; s < a.res; ++s) {
+      if (!(fitted->at("n", s, t) >= 4)) continue;
+      const std::vector<double> p = fitted->parameters(s, t);
+      const auto summaries = model.lobes(p);  // the mirror direction about the normal, or none (light below)
+      if (summaries.empty()) continue;
+      const Vec3d axis = summaries.front().direction.normalized();
+      const double roughness = std::max(p[6], fitting::GgxModel::kMinRoughness), alpha = roughness * roughness;
+      TexelLobe tl;
+      tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+      Vec3d l, irradiance;
+      light.at(tl.point_mm / 1000.0, &l, &irradiance);
+      tl.direction = axis;
+      tl.shininess = 1.0 / (2.0 * alpha * alpha * std::max(l.z(), 0.1));
+      // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
+      if (tl.shininess < kNarrowLobeShininess) continue;
+      // Its share of the texel's radiance summed over the view hemisphere (a lobe of peak P and shininess m holds
+      // about 2 pi P / (m + 1), a diffuse part D holds 2 pi D), not of the peak: a plastic's narrow highlight is nearly
+      // all of its peak but little of what an error over the hemisphere weighs (docs/sampling.md, measured).
+      const double lobe = luminance(summaries.front().peak_rgb) / (tl.shininess + 1.0);
+      tl.weight = lobe / std::max(1e-12, lobe + luminance(model.diffuse_part(p)));
+      const fitting::TexelObservations all = map.texel(s, t);
+      tl.capped = p[6] <= ggx_roughness_floor(l, all) * (1.0 + 1e-3);
+      count_in_cone(tl, all);
+      out.lobes.push_back(tl);
+    }
+  return out;
+}
+
 class CoarseFitPlanner final : public capture::ViewPlanner {
  public:
-  Status check(const capture::AdaptiveSettings& a, const std::filesystem::path& session_dir) const override {
+  Status check(const capture::AdaptiveSettings& a, const std::filesystem::path& session_dir,
+               const nlohmann::json& rig_config) const override {
     // A new session has no calib/ yet: then the intrinsics must come with the scheme (camera=FILE.yml).
-    return planner_camera(a, session_dir).status();
+    VDRIG_TRY(planner_camera(a, session_dir).status());
+    if (a.model == "ggx") {
+      // ggx:iso is a BRDF: the planner fits it under the lamp the rig config records (not estimated per batch).
+      const bool has_light = rig_config.is_object() && rig_config.contains("light");
+      auto lamp = has_light ? rig::lamp_from_light_section(rig_config["light"])
+                            : Result<std::optional<rig::LampPosition>>(std::optional<rig::LampPosition>());
+      if (!lamp) return make_error(lamp.error().code, "adaptive sampling, model=ggx: " + lamp.error().message);
+      if (!lamp.value()) return make_error(ErrorCode::kInvalidArgument, std::string(kGgxNeedsLamp));
+    }
+    return Status::ok();
   }
   Result<capture::BatchPlan> plan_batch(const capture::BatchRequest& req) override {
     auto logger = log::get("pipeline");
@@ -146,48 +312,12 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
           std::find(req.previous_batch.begin(), req.previous_batch.end(), views[k]) != req.previous_batch.end();
       if (req.previous_batch.empty() ? k % 4 == 2 : in_last) held.push_back(static_cast<int>(k));
     }
-    // Two lobes where the texel's observations support them (the fit's BIC and detection rules): a scene lit by two
-    // lights has two highlights per texel, and one lobe would leave the weaker one to the coverage term.
-    fitting::PhongFitOptions phong;
-    phong.lobes = kPlannerLobes;
-    std::vector<TexelLobe> lobes;
-    double err2 = 0, sig2 = 0;
+    auto fit = a.model == "ggx" ? ggx_texel_lobes(session, map, held, a) : phong_texel_lobes(map, held, a);
+    if (!fit) return fit.error();
+    std::vector<TexelLobe>& lobes = fit->lobes;
+    const double err2 = fit->err2, sig2 = fit->sig2;
     int poorly = 0;
-    for (int t = 0; t < a.res; ++t)
-      for (int s = 0; s < a.res; ++s) {
-        const fitting::TexelObservations all = map.texel(s, t);
-        if (all.size() < 4) continue;
-        // Predicted error: the fit without the held-out views, at them.
-        const fitting::TexelObservations fit_obs = map.texel(s, t, held);
-        if (fit_obs.size() >= 4 && fit_obs.size() < all.size()) {
-          const fitting::PhongFit before = fitting::fit_phong(fit_obs, phong);
-          for (size_t i = 0; i < all.size(); ++i) {
-            if (!std::binary_search(held.begin(), held.end(), all.view[i])) continue;
-            const double predicted = luminance(before.params.evaluate(all.direction[i].cast<double>()));
-            const double seen = luminance(all.radiance[i]);
-            err2 += (predicted - seen) * (predicted - seen);
-            sig2 += seen * seen;
-          }
-        }
-        const fitting::PhongFit fit = fitting::fit_phong(all, phong);
-        double brightness = luminance(fit.params.kd);
-        for (const auto& lobe : fit.params.lobes) brightness += luminance(lobe.ks);
-        for (const auto& lobe : fit.params.lobes) {
-          // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
-          if (lobe.shininess < kNarrowLobeShininess) continue;
-          TexelLobe tl;
-          tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
-          tl.direction = lobe.direction.normalized();
-          tl.shininess = lobe.shininess;
-          tl.weight = luminance(lobe.ks) / std::max(1e-12, brightness);
-          tl.capped = fit.capped_lobes > 0;
-          const double cone_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / std::max(1.0, tl.shininess));
-          for (size_t i = 0; i < all.size(); ++i)
-            if (all.direction[i].cast<double>().dot(tl.direction) >= cone_cos) tl.in_cone += 1;
-          if (tl.poorly_constrained()) ++poorly;
-          lobes.push_back(tl);
-        }
-      }
+    for (const auto& l : lobes) poorly += l.poorly_constrained() ? 1 : 0;
     const double predicted_error = sig2 > 0 ? std::sqrt(err2 / sig2) : 0.0;
 
     // Candidates the stage reaches, away from the views taken.

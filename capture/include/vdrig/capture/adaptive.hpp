@@ -37,7 +37,7 @@ struct AdaptiveSettings {
   std::string base;               // the coarse scheme captured first (schemes.hpp grammar); empty: base_scheme()
   int batch = 6;                  // views chosen per batch
   double max_move_s = 0;          // budget of planned stage move time, s (0: none)
-  int res = 12;                   // coarse observation map: res x res texels
+  int res = 12;                   // coarse observation map: res x res texels (unless given: default_res(model))
   double max_zenith_deg = 85;     // candidates' zenith limit
   double min_gain = 0.03;         // relative improvement of the predicted error that counts as progress
   int patience = 2;               // batches without progress before stopping
@@ -46,7 +46,10 @@ struct AdaptiveSettings {
   uint64_t seed = 1;              // jitter of the candidate directions
   std::string camera;             // intrinsics (camera.yml) the planner projects with; empty: SESSION/calib
   int ahead = 3;  // batches the plan looks ahead: routed at once, the next batch taken along that route (1: alone)
+  std::string model = "phong";  // the planner's per-texel model: "phong" (lobes) or "ggx" (ggx:iso under the lamp)
 
+  /// The coarse map's default side for a planner model: 12 for phong, 16 for ggx (docs/sampling.md has why).
+  static int default_res(const std::string& model) { return model == "ggx" ? 16 : 12; }
   /// `base`, or when empty half of N in a spiral to 85 deg (spiral:N/2:R@85, R = sqrt(pi N / 16)): docs/sampling.md.
   std::string base_scheme() const;
   bool is_valid(std::string* why) const;
@@ -84,16 +87,19 @@ class ViewPlanner {
  public:
   virtual ~ViewPlanner() = default;
   virtual Result<BatchPlan> plan_batch(const BatchRequest& request) = 0;
-  /// What the planner needs besides the views (e.g. the camera's intrinsics), checked before a new session is made:
-  /// a capture that could not plan its first batch is refused up front, not after its base views. `session_dir`: the
-  /// session to be (its files do not exist yet).
-  virtual Status check(const AdaptiveSettings& /*settings*/, const std::filesystem::path& /*session_dir*/) const {
+  /// What the planner needs besides the views (e.g. the camera's intrinsics, the lamp), checked before a new session
+  /// is made: a capture that could not plan its first batch is refused up front, not after its base views.
+  /// `session_dir`: the session to be (its files do not exist yet); `rig_config`: the one it will be captured with.
+  virtual Status check(const AdaptiveSettings& /*settings*/, const std::filesystem::path& /*session_dir*/,
+                       const nlohmann::json& /*rig_config*/) const {
     return Status::ok();
   }
 };
 
-/// make_view_planner(), then its check() of `scheme` (an adaptive: spec) for a new session at `session_dir`.
-Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir);
+/// make_view_planner(), then its check() of `scheme` (an adaptive: spec) for a new session at `session_dir` captured
+/// with `rig_config`.
+Status check_adaptive_capture(const std::string& scheme, const std::filesystem::path& session_dir,
+                              const nlohmann::json& rig_config);
 
 using ViewPlannerFactory = std::function<std::unique_ptr<ViewPlanner>()>;
 /// The planner of this executable (the pipeline's, when built): set once at start-up.

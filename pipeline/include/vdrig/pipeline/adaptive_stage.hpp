@@ -1,6 +1,6 @@
 // Adaptive sampling's planner (capture/adaptive.hpp runs the loop): a coarse observation map of the views captured
-// so far, one Phong lobe fitted per texel, and the next views chosen where the lobes are poorly constrained and where
-// the hemisphere has gaps, weighed against the stage's move time (docs/sampling.md, "adaptive").
+// so far, per texel Phong lobes or a ggx:iso lobe (`model=`), and the next views chosen where the lobes are poorly
+// constrained and where the hemisphere has gaps, weighed against the stage's move time (docs/sampling.md, "adaptive").
 //
 // It reads the frames as they are (no HDR merge, no marker calibration: it runs between batches, in seconds): each
 // view's least exposed unclipped frame divided by its exposure, posed by the rig geometry the capture aims with at
