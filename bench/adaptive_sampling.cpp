@@ -19,12 +19,13 @@
 // calibration. The adaptive planner projects with the true intrinsics too (camera=...).
 //
 // Usage: bench_adaptive_sampling [work_dir] [--scenes patchwork,ggx4,lights2] [--schemes "adaptive:60;spiral:60:5@85"]
-//        [--fits "phong:1,phong:1 sa,ggx:iso"] [--diagnose] [--blender] [--blender-only]
+//        [--fits "phong:1,phong:1 sa,ggx:iso"] [--diagnose] [--no-noise] [--blender] [--blender-only]
 // (default /tmp/vdrig_bench_adaptive, every scene and scheme, phong:1; prints one table per scene). --fits fits each
 // session with each model (" sa": solid-angle weights, PhongFitOptions::solid_angle_weights; ggx with the scene's one
 // light, skipped on a scene lit otherwise). `vdrig fit` weights adaptive sessions by default (--weights auto), so its
 // figures for an adaptive session are the " sa" rows, for a uniform one the plain rows; --diagnose adds per material
-// where the error is (cone, grazing, else).
+// where the error is (cone, grazing, else); --no-noise turns the simulated sensor's photon and read noise off (what is
+// left of an error then is sampling and model, not noise).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -428,7 +429,7 @@ int main(int argc, char** argv) {
                                       "spiral:120:7@85", "icosahedron:3@85"};
   std::vector<std::string> blender_schemes = {"adaptive:60", "spiral:60:5@85", "icosahedron:3@85"};
   BenchOptions bench;
-  bool blender = false;
+  bool blender = false, noise = true;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const bool has_value = i + 1 < argc;
@@ -454,6 +455,8 @@ int main(int argc, char** argv) {
       }
     } else if (arg == "--diagnose") {
       bench.diagnose = true;
+    } else if (arg == "--no-noise") {
+      noise = false;
     } else if (arg == "--blender") {
       blender = true;
     } else if (arg == "--blender-only") {
@@ -464,7 +467,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: bench_adaptive_sampling [work_dir] [--scenes a,b] [--schemes \"s1;s2\"] "
-                   "[--fits \"phong:1,phong:1 sa,ggx:iso\"] [--diagnose] [--blender] [--blender-only]\n");
+                   "[--fits \"phong:1,phong:1 sa,ggx:iso\"] [--diagnose] [--no-noise] [--blender] [--blender-only]\n");
       return 2;
     }
   }
@@ -475,7 +478,8 @@ int main(int argc, char** argv) {
   if (!camera.save_yaml(camera_yml)) return 1;
   for (const auto& name : scene_names) {
     const std::string scene = name == "ggx4" ? write_ggx_scene(work).string() : name;
-    const json rc = rig_config(scene);
+    json rc = rig_config(scene);
+    if (!noise) rc["sim"]["camera"]["full_well_e"] = 0;  // photon and read noise off (docs/sim.md)
     auto scene_r = sim::make_scene(scene);
     if (!scene_r) return 1;
     auto held_out = held_out_session(work / "held_out", rc, scene_r.value());

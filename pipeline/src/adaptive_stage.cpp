@@ -11,6 +11,7 @@
 #include "vdrig/core/log.hpp"
 #include "vdrig/fitting/fit_map.hpp"
 #include "vdrig/fitting/ggx_model.hpp"
+#include "vdrig/fitting/lights.hpp"
 #include "vdrig/fitting/obsmap.hpp"
 #include "vdrig/fitting/phong.hpp"
 #include "vdrig/pipeline/session_light.hpp"
@@ -36,6 +37,11 @@ constexpr std::string_view kGgxNeedsLamp =
     "adaptive sampling, model=ggx: the planner fits ggx:iso under the session's lamp, and the rig config records "
     "none: give its \"light\" section the lamp's position (\"position_mm\", docs/hardware.md), or plan with "
     "model=phong";
+/// Mirror probes (docs/sampling.md, "adaptive"): a texel with no lobe near an estimated light's mirror direction gets
+/// a hypothetical lobe there of this shininess (support cone 7 deg) and weight, until one view falls in its cone.
+constexpr double kProbeShininess = 300.0, kProbeWeight = 0.2;
+/// A texel's fitted lobe (of any width) this close to the mirror direction already accounts for that highlight.
+constexpr double kProbeKnownRad = 10.0 * kPi / 180.0;
 
 double luminance(const Eigen::Vector3f& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
 double luminance(const Vec3d& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
@@ -96,15 +102,61 @@ struct TexelLobe {
   double weight = 0;   // how much the lobe matters: its share of the texel's brightness
   double in_cone = 0;  // observations inside its support cone (and views chosen into it since)
   bool capped = false;
+  bool probe = false;  // a hypothetical narrow lobe at the mirror direction of an estimated light
   /// What one more view in the cone is worth: the variance of a lobe's fit falls about as 1 / n with n views in its
   /// cone, so its need is want / (want + n): 1 with none, 1/2 at kWantedLobeViews, never 0. A lobe whose width the
   /// sampling capped is narrower than the fit can say: at least 1/2.
   double need() const {
+    if (probe) return in_cone > 0 ? 0.0 : 1.0;
     const double need = kWantedLobeViews / (kWantedLobeViews + in_cone);
     return capped ? std::max(need, 0.5) : need;
   }
-  bool poorly_constrained() const { return capped || in_cone < kWantedLobeViews; }
+  bool poorly_constrained() const { return !probe && (capped || in_cone < kWantedLobeViews); }
 };
+
+/// What the planner keeps of a fitted texel for the mirror probes: where it is, its lobes' axes, where it was seen
+/// from.
+struct TexelSeen {
+  Vec3d point_mm = Vec3d::Zero();
+  std::vector<Vec3d> lobe_axes;
+  std::vector<Vec3d> seen;
+};
+
+/// Mirror probes: the narrow lobes' axes say where the lights are (fitting::estimate_point_lights; capped lobes too,
+/// and loose tolerances: the planner's coarse fits miss the axis by a few degrees); each texel with no fitted lobe near
+/// a light's mirror direction gets a hypothetical narrow lobe there, so that a highlight narrower than the base's
+/// spacing (the bands m = 227 and 500 of patchwork) or lit by a second light the base missed is looked for once.
+std::vector<TexelLobe> mirror_probes(const std::vector<fitting::LobeRay>& rays, const std::vector<TexelSeen>& texels,
+                                     int* lights_found) {
+  std::vector<TexelLobe> probes;
+  *lights_found = 0;
+  if (rays.size() < 4) return probes;
+  fitting::LightEstimationOptions options;
+  options.inlier_angle_rad = deg_to_rad(3.0);
+  options.exclusion_angle_rad = deg_to_rad(8.0);
+  options.min_inliers = 4;
+  auto lights = fitting::estimate_point_lights(rays, options);
+  if (!lights) return probes;
+  *lights_found = static_cast<int>(lights->size());
+  const double probe_cos = std::pow(fitting::kLobeSupportLevel, 1.0 / kProbeShininess);
+  for (const auto& light : lights.value())
+    for (const auto& texel : texels) {
+      const Vec3d r = fitting::mirror_direction_at(light, texel.point_mm);
+      bool known = false;
+      for (const auto& axis : texel.lobe_axes) known = known || axis.dot(r) >= std::cos(kProbeKnownRad);
+      if (known) continue;
+      TexelLobe probe;
+      probe.point_mm = texel.point_mm;
+      probe.direction = r;
+      probe.shininess = kProbeShininess;
+      probe.weight = kProbeWeight;
+      probe.probe = true;
+      for (const auto& d : texel.seen)
+        if (d.dot(r) >= probe_cos) probe.in_cone += 1;
+      probes.push_back(probe);
+    }
+  return probes;
+}
 
 /// The intrinsics the planner projects with: camera=FILE.yml of the scheme, or the session's calib/camera.yml.
 Result<CameraModel> planner_camera(const capture::AdaptiveSettings& a, const std::filesystem::path& session_dir) {
@@ -122,7 +174,9 @@ Result<CameraModel> planner_camera(const capture::AdaptiveSettings& a, const std
 /// planner model (phong or ggx, AdaptiveSettings::model) gives the rest of the planner, which is the same for both.
 struct TexelLobes {
   std::vector<TexelLobe> lobes;
-  double err2 = 0, sig2 = 0;  // luminance: (predicted - seen)^2 and seen^2 over the held-out observations
+  double err2 = 0, sig2 = 0;           // luminance: (predicted - seen)^2 and seen^2 over the held-out observations
+  std::vector<TexelSeen> texels_seen;  // for the mirror probes (model=phong; empty: no probes)
+  std::vector<fitting::LobeRay> rays;  // the narrow lobes' lines toward their light
 };
 
 /// Counts the observations inside the lobe's support cone (cos^m >= kLobeSupportLevel).
@@ -163,6 +217,11 @@ Result<TexelLobes> phong_texel_lobes(const fitting::ObservationMap& map, const s
       const fitting::PhongFit fit = fitting::fit_phong(all, phong);
       double brightness = luminance(fit.params.kd);
       for (const auto& lobe : fit.params.lobes) brightness += luminance(lobe.ks);
+      TexelSeen ts;
+      ts.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+      for (size_t i = 0; i < all.size(); ++i) ts.seen.push_back(all.direction[i].cast<double>());
+      for (const auto& lobe : fit.params.lobes) ts.lobe_axes.push_back(lobe.direction.normalized());
+      out.texels_seen.push_back(std::move(ts));
       for (const auto& lobe : fit.params.lobes) {
         // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
         if (lobe.shininess < kNarrowLobeShininess) continue;
@@ -173,6 +232,7 @@ Result<TexelLobes> phong_texel_lobes(const fitting::ObservationMap& map, const s
         tl.weight = luminance(lobe.ks) / std::max(1e-12, brightness);
         tl.capped = fit.capped_lobes > 0;
         count_in_cone(tl, all);
+        out.rays.push_back(fitting::lobe_ray(tl.point_mm, tl.direction, tl.weight));
         lobes.push_back(tl);
       }
     }
@@ -319,6 +379,13 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
     int poorly = 0;
     for (const auto& l : lobes) poorly += l.poorly_constrained() ? 1 : 0;
     const double predicted_error = sig2 > 0 ? std::sqrt(err2 / sig2) : 0.0;
+    // The probes count as lobes for the picks but not in the mean over lobes: they add to the value, not dilute it.
+    const size_t real_lobes = lobes.size();
+    int lights_found = 0;
+    const std::vector<TexelLobe> probes = mirror_probes(fit->rays, fit->texels_seen, &lights_found);
+    lobes.insert(lobes.end(), probes.begin(), probes.end());
+    int probes_open = 0;
+    for (const auto& p : probes) probes_open += p.need() > 0;
 
     // Candidates the stage reaches, away from the views taken.
     std::vector<Vec3d> taken;
@@ -365,7 +432,7 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
         for (size_t k = 0; k < lobes.size(); ++k)
           lobe_term += lobes[k].weight * lobes[k].need() * lobe_value(lobes[k], c.texel_dirs[k]);
         // Per texel with a lobe: up to 1 when every lobe needs views and the candidate sits on their axes.
-        lobe_term /= static_cast<double>(std::max<size_t>(lobes.size(), 1));
+        lobe_term /= static_cast<double>(std::max<size_t>(real_lobes, 1));
         const double g = std::min(gap, kGapCapRad) / kGapRad;
         const double cov_term = a.coverage_weight * g * g / 9.0;  // 1 at the capped gap
         const double value = lobe_term + cov_term;
@@ -395,12 +462,13 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
         if (lobe_value(lobes[k], c.texel_dirs[k]) >= fitting::kLobeSupportLevel) lobes[k].in_cone += 1;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    plan.info = {{"views_fitted", views.size()}, {"held_out", held.size()},  {"texels_with_lobe", lobes.size()},
-                 {"poorly_constrained", poorly}, {"lobe_value", lobe_total}, {"coverage_value", coverage_total},
-                 {"planning_s", seconds}};
+    plan.info = {{"views_fitted", views.size()},     {"held_out", held.size()},    {"texels_with_lobe", real_lobes},
+                 {"poorly_constrained", poorly},     {"lobe_value", lobe_total},   {"coverage_value", coverage_total},
+                 {"lights_estimated", lights_found}, {"probes_open", probes_open}, {"planning_s", seconds}};
     logger->info(
-        "adaptive plan {}: {} views fitted, {} lobes ({} poorly constrained), predicted error {:.4g}, {:.2f} s",
-        req.batch, views.size(), lobes.size(), poorly, predicted_error, seconds);
+        "adaptive plan {}: {} views fitted, {} lobes ({} poorly constrained), {} lights estimated, {} mirror probes "
+        "open, predicted error {:.4g}, {:.2f} s",
+        req.batch, views.size(), real_lobes, poorly, lights_found, probes_open, predicted_error, seconds);
     return plan;
   }
 };

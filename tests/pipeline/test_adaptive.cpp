@@ -165,6 +165,8 @@ TEST(Adaptive, PutsItsBatchesIntoTheNarrowHighlightWhereAUniformSchemeMissesIt) 
   EXPECT_EQ(session->completed_view_count(), n);
   const auto progress = capture::adaptive_progress(session.value());
   ASSERT_TRUE(progress.stopped);
+  // The narrow lobes' axes meet at the one light (the mirror probes' light estimate, docs/sampling.md).
+  for (const auto& b : progress.batches) EXPECT_EQ(b.info.value("lights_estimated", 0), 1) << "batch " << b.batch;
   const int adaptive_in_cone = views_within(session.value(), 12.0, base);
   // The uniform schemes of the same size.
   int uniform_best = 0;
