@@ -224,8 +224,10 @@ Status refine_with_ggx(const Obs& full, const std::vector<int>& held_out, int th
   // The curvature of the squared residuals at p (central differences, step 0.5 % of the distance).
   auto at = ggx_residual(obs, held_out, threads, p);
   if (!at) return at.error();
+  ++evaluations;
   const double h = 0.005 * p.norm();
   const auto ssr = [&](const Vec3d& q) {
+    ++evaluations;
     auto r = ggx_residual(obs, held_out, threads, q);
     return r ? r->ssr : std::numeric_limits<double>::quiet_NaN();
   };
@@ -243,7 +245,7 @@ Status refine_with_ggx(const Obs& full, const std::vector<int>& held_out, int th
   const Eigen::SelfAdjointEigenSolver<Mat3d> eig(hessian);
   out->light.position_mm = p;
   out->light.direction = p.normalized();
-  out->refine_evaluations = evaluations + 19;
+  out->refine_evaluations = evaluations;
   out->refine_texels = obs.spec().texels_s * obs.spec().texels_t;
   if (hessian.allFinite() && eig.eigenvalues()[0] > 0.0)
     out->covariance_mm2 = 2.0 * sigma2 * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
