@@ -303,7 +303,9 @@ Result<TexelLobes> ggx_texel_lobes(const capture::Session& session, const fittin
       const auto summaries = model.lobes(p);  // the mirror direction about the normal, or none (light below)
       if (summaries.empty()) continue;
       const Vec3d axis = summaries.front().direction.normalized();
-      const double roughness = std::max(p[6], fitting::GgxModel::kMinRoughness), alpha = roughness * roughness;
+      const double fitted_roughness = fitting::GgxModel::material(p).roughness;
+      const double roughness = std::max(fitted_roughness, fitting::GgxModel::kMinRoughness),
+                   alpha = roughness * roughness;
       TexelLobe tl;
       tl.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
       Vec3d l, irradiance;
@@ -318,7 +320,7 @@ Result<TexelLobes> ggx_texel_lobes(const capture::Session& session, const fittin
       const double lobe = luminance(summaries.front().peak_rgb) / (tl.shininess + 1.0);
       tl.weight = lobe / std::max(1e-12, lobe + luminance(model.diffuse_part(p)));
       const fitting::TexelObservations all = map.texel(s, t);
-      tl.capped = p[6] <= ggx_roughness_floor(l, all) * (1.0 + 1e-3);
+      tl.capped = fitted_roughness <= ggx_roughness_floor(l, all) * (1.0 + 1e-3);
       count_in_cone(tl, all);
       out.lobes.push_back(tl);
     }
