@@ -1,5 +1,6 @@
 #include "vdrig/pipeline/adaptive_stage.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -40,6 +41,10 @@ constexpr std::string_view kGgxNeedsLamp =
 /// Mirror probes (docs/sampling.md, "adaptive"): a texel with no lobe near an estimated light's mirror direction gets
 /// a hypothetical lobe there of this shininess (support cone 7 deg) and weight, until one view falls in its cone.
 constexpr double kProbeShininess = 300.0, kProbeWeight = 0.2;
+/// Two models disagree (docs/sampling.md, "adaptive"): the weight of the mean over texels of (Phong - quadratic)^2 /
+/// brightness^2 at a candidate against the lobe term (0: off). Tuned on adaptive:60, seeds 1-6 (docs/results.md §11):
+/// 0.03 and more took views off a lone narrow highlight (tests/pipeline/test_adaptive.cpp).
+constexpr double kDisagreeWeight = 0.01;
 /// A texel's fitted lobe (of any width) this close to the mirror direction already accounts for that highlight.
 constexpr double kProbeKnownRad = 10.0 * kPi / 180.0;
 
@@ -177,7 +182,22 @@ struct TexelLobes {
   double err2 = 0, sig2 = 0;           // luminance: (predicted - seen)^2 and seen^2 over the held-out observations
   std::vector<TexelSeen> texels_seen;  // for the mirror probes (model=phong; empty: no probes)
   std::vector<fitting::LobeRay> rays;  // the narrow lobes' lines toward their light
+  /// Two models per texel for the disagreement term (model=phong): the Phong fit and a quadratic in the direction.
+  struct TwoModels {
+    Vec3d point_mm = Vec3d::Zero();
+    fitting::PhongParams phong;
+    Eigen::Matrix<double, 10, 1> quadratic = Eigen::Matrix<double, 10, 1>::Zero();
+    double norm2 = 1;  // mean seen luminance^2
+  };
+  std::vector<TwoModels> models;
 };
+
+/// The quadratic basis in a direction: 1, x, y, z, and the six products.
+Eigen::Matrix<double, 10, 1> quadratic_basis(const Vec3d& d) {
+  Eigen::Matrix<double, 10, 1> b;
+  b << 1, d.x(), d.y(), d.z(), d.x() * d.x(), d.y() * d.y(), d.z() * d.z(), d.x() * d.y(), d.x() * d.z(), d.y() * d.z();
+  return b;
+}
 
 /// Counts the observations inside the lobe's support cone (cos^m >= kLobeSupportLevel).
 void count_in_cone(TexelLobe& tl, const fitting::TexelObservations& all) {
@@ -222,6 +242,25 @@ Result<TexelLobes> phong_texel_lobes(const fitting::ObservationMap& map, const s
       for (size_t i = 0; i < all.size(); ++i) ts.seen.push_back(all.direction[i].cast<double>());
       for (const auto& lobe : fit.params.lobes) ts.lobe_axes.push_back(lobe.direction.normalized());
       out.texels_seen.push_back(std::move(ts));
+      if (all.size() >= 10) {
+        TexelLobes::TwoModels m;
+        m.point_mm = texel_centre_mm(s, t, a.res, a.res, spec.width_mm, spec.height_mm);
+        m.phong = fit.params;
+        Eigen::MatrixXd A(all.size(), 10);
+        Eigen::VectorXd y(all.size());
+        double n2 = 0;
+        for (size_t i = 0; i < all.size(); ++i) {
+          A.row(static_cast<Eigen::Index>(i)) = quadratic_basis(all.direction[i].cast<double>()).transpose();
+          y(static_cast<Eigen::Index>(i)) = luminance(all.radiance[i]);
+          n2 += y(static_cast<Eigen::Index>(i)) * y(static_cast<Eigen::Index>(i));
+        }
+        m.norm2 = std::max(1e-12, n2 / static_cast<double>(all.size()));
+        // Ridge: a texel with few views should not swing wildly between them.
+        const Eigen::MatrixXd AtA =
+            A.transpose() * A + 1e-3 * static_cast<double>(all.size()) * Eigen::MatrixXd::Identity(10, 10);
+        m.quadratic = AtA.ldlt().solve(A.transpose() * y);
+        out.models.push_back(m);
+      }
       for (const auto& lobe : fit.params.lobes) {
         // A broad lobe is measured by any spread of views; only a narrow one needs views placed on it.
         if (lobe.shininess < kNarrowLobeShininess) continue;
@@ -400,12 +439,23 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
       PanTilt target;
       std::vector<Vec3d> texel_dirs;  // per lobe texel: the direction the texel sees the camera from
       bool used = false;
+      double disagree = 0;  // mean over texels of (phong - quadratic)^2 / brightness^2 there
     };
+    const double disagree_weight = a.model == "phong" ? kDisagreeWeight : 0.0;
     std::vector<Candidate> cands;
     for (const auto& r : reach.reachable) {
       Candidate c{r.direction, r.pan_tilt, {}, false};
       const ViewPose pose = rig::surface_pose(req.geometry, r.pan_tilt);
       for (const auto& l : lobes) c.texel_dirs.push_back(pose.view_direction(l.point_mm));
+      if (disagree_weight > 0 && !fit->models.empty()) {
+        for (const auto& m : fit->models) {
+          const Vec3d d = pose.view_direction(m.point_mm);
+          if (d.z() <= 0) continue;
+          const double diff = luminance(m.phong.evaluate(d)) - m.quadratic.dot(quadratic_basis(d));
+          c.disagree += diff * diff / m.norm2;
+        }
+        c.disagree /= static_cast<double>(fit->models.size());
+      }
       cands.push_back(std::move(c));
     }
     auto gap_of = [&](const Vec3d& d) {
@@ -421,10 +471,10 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
     plan.predicted_error = predicted_error;
     PanTilt at = req.from;
     std::vector<PanTilt> route;  // ahead > 1: the picks so far, each inserted where it adds the least move time
-    double lobe_total = 0, coverage_total = 0;
+    double lobe_total = 0, coverage_total = 0, disagree_total = 0;
     for (int pick = 0; pick < req.max_views; ++pick) {
       int best = -1;
-      double best_utility = 0, best_lobe = 0, best_cov = 0;
+      double best_utility = 0, best_lobe = 0, best_cov = 0, best_dis = 0;
       for (size_t i = 0; i < cands.size(); ++i) {
         Candidate& c = cands[i];
         if (c.used) continue;
@@ -437,7 +487,10 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
         lobe_term /= static_cast<double>(std::max<size_t>(real_lobes, 1));
         const double g = std::min(gap, kGapCapRad) / kGapRad;
         const double cov_term = a.coverage_weight * g * g / 9.0;  // 1 at the capped gap
-        const double value = lobe_term + cov_term;
+        // Two models disagree: resolved by a view within about a gap spacing (kGapRad) of the candidate.
+        const double gd = std::min(gap, kGapRad) / kGapRad;
+        const double dis_term = disagree_weight * c.disagree * gd * gd;
+        const double value = lobe_term + cov_term + dis_term;
         const double move_s = a.ahead > 1 ? capture::cheapest_insertion(req.stage, req.from, route, c.target).added_s
                                           : capture::move_time_s(req.stage, at, c.target);
         const double utility = value / (1.0 + move_s / a.move_weight_s);
@@ -446,6 +499,7 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
           best = static_cast<int>(i);
           best_lobe = lobe_term;
           best_cov = cov_term;
+          best_dis = dis_term;
         }
       }
       if (best < 0 || best_utility < 1e-9) break;
@@ -460,13 +514,15 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
       }
       lobe_total += best_lobe;
       coverage_total += best_cov;
+      disagree_total += best_dis;
       for (size_t k = 0; k < lobes.size(); ++k)
         if (lobe_value(lobes[k], c.texel_dirs[k]) >= fitting::kLobeSupportLevel) lobes[k].in_cone += 1;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     plan.info = {{"views_fitted", views.size()},     {"held_out", held.size()},    {"texels_with_lobe", real_lobes},
                  {"poorly_constrained", poorly},     {"lobe_value", lobe_total},   {"coverage_value", coverage_total},
-                 {"lights_estimated", lights_found}, {"probes_open", probes_open}, {"planning_s", seconds}};
+                 {"lights_estimated", lights_found}, {"probes_open", probes_open}, {"planning_s", seconds},
+                 {"disagree_value", disagree_total}};
     logger->info(
         "adaptive plan {}: {} views fitted, {} lobes ({} poorly constrained), {} lights estimated, {} mirror probes "
         "open, predicted error {:.4g}, {:.2f} s",

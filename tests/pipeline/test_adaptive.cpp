@@ -167,6 +167,10 @@ TEST(Adaptive, PutsItsBatchesIntoTheNarrowHighlightWhereAUniformSchemeMissesIt) 
   ASSERT_TRUE(progress.stopped);
   // The narrow lobes' axes meet at the one light (the mirror probes' light estimate, docs/sampling.md).
   for (const auto& b : progress.batches) EXPECT_EQ(b.info.value("lights_estimated", 0), 1) << "batch " << b.batch;
+  // The two-models term is on (docs/sampling.md) and, at its weight, leaves the highlight its views (below).
+  double disagree = 0;
+  for (const auto& b : progress.batches) disagree += b.info.value("disagree_value", 0.0);
+  EXPECT_GT(disagree, 0.0);
   const int adaptive_in_cone = views_within(session.value(), 12.0, base);
   // The uniform schemes of the same size.
   int uniform_best = 0;
