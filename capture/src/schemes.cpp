@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "vdrig/core/log.hpp"
+#include "vdrig/core/splitmix64.hpp"
 
 namespace vdrig::capture {
 namespace {
@@ -170,19 +171,6 @@ bool component_valid(const SchemeComponent& c, std::string* why) {
   }
   return fail("unknown scheme kind");
 }
-
-/// splitmix64: a tiny generator whose output is fixed by its definition (std::uniform_real_distribution is not the
-/// same across standard libraries, and a seed must give the same plan everywhere).
-struct SplitMix64 {
-  uint64_t state;
-  uint64_t next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  // [0, 1)
-};
 
 double zenith_of(const Vec3d& d) { return std::acos(std::clamp(d.z(), -1.0, 1.0)); }
 

@@ -13,6 +13,7 @@
 #include "vdrig/core/file_write.hpp"
 #include "vdrig/core/log.hpp"
 #include "vdrig/core/settings.hpp"
+#include "vdrig/core/splitmix64.hpp"
 #include "vdrig/rig/geometry_config.hpp"
 #include "vdrig/rig/lamp.hpp"
 #include "vdrig/rig/motion.hpp"
@@ -23,11 +24,8 @@ using nlohmann::json;
 
 namespace {
 
-uint64_t mix64(uint64_t h, uint64_t v) {  // splitmix64's finaliser over h ^ v: every input bit reaches every output bit
-  uint64_t z = (h ^ v) + 0x9E3779B97F4A7C15ull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
+uint64_t mix64(uint64_t h, uint64_t v) {  // splitmix64's step over h ^ v: every input bit reaches every output bit
+  return splitmix64_finalise((h ^ v) + kSplitMix64Increment);
 }
 
 uint64_t bits_of(double x) { return std::bit_cast<uint64_t>(x == 0.0 ? 0.0 : x); }  // -0 and +0 are one position

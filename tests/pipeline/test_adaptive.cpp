@@ -368,22 +368,22 @@ int killed_and_resumed_differ(const AdaptiveRig& s, int* kills) {
   return differ;
 }
 
-TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
-  const AdaptiveRig s = make_setup("kill");
+/// Killed at least 5 times and resumed, the session ends with the uninterrupted run's views, each complete once.
+void expect_kills_and_resumes_change_nothing(const AdaptiveRig& s) {
   int kills = 0;
   EXPECT_EQ(killed_and_resumed_differ(s, &kills), 0);
   EXPECT_GE(kills, 5);
   fs::remove_all(s.root);
 }
 
+TEST(Adaptive, SigkillAndResumeGiveTheSameViewsNoneDoubled) {
+  expect_kills_and_resumes_change_nothing(make_setup("kill"));
+}
+
 // With sensor noise on, later batches are planned from noisy images: a resumed process must shoot the same noise,
 // which the simulator's "noise_seed": "shot" gives (seeded by what is shot, not by the process's frame counter).
 TEST(Adaptive, WithNoiseSeededByTheShotSigkillAndResumeGiveTheSameViews) {
-  const AdaptiveRig s = make_setup("kill_noise", "shot");
-  int kills = 0;
-  EXPECT_EQ(killed_and_resumed_differ(s, &kills), 0);
-  EXPECT_GE(kills, 5);
-  fs::remove_all(s.root);
+  expect_kills_and_resumes_change_nothing(make_setup("kill_noise", "shot"));
 }
 
 // The contrast (run with --gtest_also_run_disabled_tests; docs/sim.md): noise seeded by the frame counter, the default,
