@@ -374,9 +374,9 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
     VDRIG_TRY(planner_camera(a, session_dir).status());
     if (a.model == "ggx") {
       // ggx:iso is a BRDF: the planner fits it under the lamp the rig config records (not estimated per batch).
-      const bool has_light = rig_config.is_object() && rig_config.contains("light");
-      auto lamp = has_light ? rig::lamp_from_light_section(rig_config["light"])
-                            : Result<std::optional<rig::LampPosition>>(std::optional<rig::LampPosition>());
+      if (!rig_config.is_object() || !rig_config.contains("light"))
+        return make_error(ErrorCode::kInvalidArgument, std::string(kGgxNeedsLamp));
+      auto lamp = rig::lamp_from_light_section(rig_config["light"]);
       if (!lamp) return make_error(lamp.error().code, "adaptive sampling, model=ggx: " + lamp.error().message);
       if (!lamp.value()) return make_error(ErrorCode::kInvalidArgument, std::string(kGgxNeedsLamp));
     }
