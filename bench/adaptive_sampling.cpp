@@ -21,7 +21,8 @@
 // Usage: bench_adaptive_sampling [work_dir] [--scenes patchwork,ggx4,lights2] [--schemes "adaptive:60;spiral:60:5@85"]
 //        [--fits "phong:1,phong:1 sa,ggx:iso"] [--diagnose] [--no-noise] [--blender] [--blender-only]
 // (default /tmp/vdrig_bench_adaptive, every scene and scheme, phong:1; prints one table per scene). --fits fits each
-// session with each model (" sa": solid-angle weights, PhongFitOptions::solid_angle_weights; ggx with the scene's one
+// session with each model (" sa": solid-angle weights, PhongFitOptions::solid_angle_weights; " sl": shared lights,
+// MapFitOptions::shared_lights, the words in any order; ggx with the scene's one
 // light, skipped on a scene lit otherwise). `vdrig fit` weights adaptive sessions by default (--weights auto), so its
 // figures for an adaptive session are the " sa" rows, for a uniform one the plain rows; --diagnose adds per material
 // where the error is (cone, grazing, else); --no-noise turns the simulated sensor's photon and read noise off (what is
@@ -32,6 +33,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -151,7 +153,9 @@ struct Row {
 struct FitVariant {
   std::string model = "phong:1";
   bool solid_angle = false;
-  std::string label() const { return model + (solid_angle ? " sa" : ""); }
+  bool shared_lights = false;  // " sl": MapFitOptions::shared_lights (the lights estimated over the map, lobes refitted
+                               // at their mirror directions where that wins by BIC)
+  std::string label() const { return model + (solid_angle ? " sa" : "") + (shared_lights ? " sl" : ""); }
 };
 
 struct BenchOptions {
@@ -262,6 +266,7 @@ Result<FitRow> fit_and_evaluate(const fitting::ObservationMap& obs, const sim::S
     fit.model_options.edit<fitting::GgxFitOptions>().light = light.value();
   }
   if (variant.solid_angle) fit.model_options.edit<fitting::PhongFitOptions>().solid_angle_weights = true;
+  fit.shared_lights = variant.shared_lights;
   auto map = fitting::fit_parameter_map(obs, fit);
   if (!map) return map.error();
   FitRow row;
@@ -448,9 +453,20 @@ int main(int argc, char** argv) {
       // e.g. "phong:1,phong:1 sa,ggx:iso": each session fitted so (" sa": solid-angle weights).
       bench.fits.clear();
       for (const auto& f : split_commas(argv[++i])) {
+        // A model, then optional words: "sa" (solid-angle weights), "sl" (shared lights).
         FitVariant v;
-        v.solid_angle = f.size() > 3 && f.substr(f.size() - 3) == " sa";
-        v.model = v.solid_angle ? f.substr(0, f.size() - 3) : f;
+        std::istringstream words(f);
+        words >> v.model;
+        for (std::string w; words >> w;) {
+          if (w == "sa") {
+            v.solid_angle = true;
+          } else if (w == "sl") {
+            v.shared_lights = true;
+          } else {
+            std::fprintf(stderr, "--fits: unknown word \"%s\" in \"%s\" (sa, sl)\n", w.c_str(), f.c_str());
+            return 2;
+          }
+        }
         bench.fits.push_back(v);
       }
     } else if (arg == "--diagnose") {
