@@ -372,6 +372,19 @@ bool carries_energy(const PhongParams& params, const PhongLobe& lobe) {
   return lobe.ks.maxCoeff() > 1e-3 * std::max(params.kd.maxCoeff(), 1e-12);
 }
 
+/// The RMS of one residual of `params` over `obs` (per channel and observation, unweighted, over the degrees of
+/// freedom left by a K-lobe fit), floored at 1e-6 of the observations' RMS (float32 round-off), as LobeCountBic.
+double fit_noise_rms(const TexelObservations& obs, const PhongParams& params, int lobes, const PhongFitOptions& opt) {
+  const int n = static_cast<int>(3 * obs.size());
+  const int parameters = phong_parameter_count(lobes, opt.shared_shininess, !opt.fixed_directions.empty());
+  double sq = 0.0, observed = 0.0;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    sq += (params.evaluate(obs.direction[i].cast<double>()) - obs.radiance[i].cast<double>()).squaredNorm();
+    observed += obs.radiance[i].cast<double>().squaredNorm();
+  }
+  return std::max(std::sqrt(sq / std::max(1, n - parameters)), 1e-6 * std::sqrt(observed / std::max(1, n)));
+}
+
 /// Solves K lobes, then caps the shininess of every lobe that the observations do not support (fewer than
 /// opt.lobe_support of them inside its support cone: phong_support_cap at the lobe's fitted direction) and solves
 /// again from there, until every lobe is supported. A capped lobe may move, which changes its cap: the caps only ever
@@ -383,9 +396,31 @@ PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& op
   std::array<double, 4> cap;
   cap.fill(std::numeric_limits<double>::infinity());
   PhongFit fit = solve_k<K>(obs, opt, init, cap);
-  // A lobe held at a known direction (the lights' mirror directions, estimated over the whole map) is not placed by
-  // this texel's observations: its width is measured on its flanks, and capping it would only bias it.
-  if (opt.lobe_support <= 0 || !opt.fixed_directions.empty()) return fit;
+  if (opt.lobe_support <= 0) return fit;
+  if (!opt.fixed_directions.empty()) {
+    // A lobe held at a known direction (the lights' mirror directions, estimated over the whole map) is not placed by
+    // this texel's observations, and where they see it on its flanks they measure its width: it is not capped. But
+    // where fewer than lobe_support observations see it above the noise, its width is not measured -- Ks and m
+    // trade along Ks c^m = what one view saw -- and the solve runs to a peak nothing saw (m in the thousands, Ks in
+    // the hundreds, docs/models.md): such a lobe is capped as a free lobe is (both rules of phong_support_cap).
+    const double noise_rms = fit_noise_rms(obs, fit.params, K, opt);
+    bool unsupported = false;
+    for (int k = 0; k < K; ++k) {
+      const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
+      if (!carries_energy(fit.params, lobe) || phong_lobe_seen_count(obs, lobe, noise_rms) >= opt.lobe_support)
+        continue;
+      double& c = cap[static_cast<size_t>(k)];
+      c = phong_support_cap(obs, lobe.direction, opt.lobe_support);
+      if (lobe.shininess > c * (1.0 + 1e-6)) unsupported = true;
+    }
+    if (unsupported) fit = solve_k<K>(obs, opt, fit.params, cap);
+    for (int k = 0; k < K; ++k) {
+      const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
+      if (carries_energy(fit.params, lobe) && lobe.shininess >= cap[static_cast<size_t>(k)] * (1.0 - 1e-6))
+        ++fit.capped_lobes;
+    }
+    return fit;
+  }
   for (int round = 0; round <= kRounds; ++round) {
     bool unsupported = false;
     for (int k = 0; k < K; ++k) {
@@ -535,6 +570,15 @@ double phong_support_cap(const TexelObservations& obs, const Vec3d& direction, i
   };
   return std::min(cap(cosines[static_cast<size_t>(support - 1)], kLobeSupportLevel),
                   cap(cosines.front(), kLobePeakLevel));
+}
+
+int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {
+  int seen = 0;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const double c = lobe.direction.dot(obs.direction[i].cast<double>().normalized());
+    if (c > 0.0 && lobe.ks.maxCoeff() * std::pow(c, lobe.shininess) >= kLobeSeenSnr * noise_rms) ++seen;
+  }
+  return seen;
 }
 
 double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {

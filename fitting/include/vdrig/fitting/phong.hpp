@@ -20,8 +20,10 @@
 //  - support (PhongFitOptions::lobe_support): at least that many observations lie inside each lobe's support cone,
 //    where the lobe is >= kLobeSupportLevel of its peak. A lobe narrower than the sampling around it has its shininess
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
-//    observations show of it. Lobes held at fixed_directions are exempt: their direction comes from elsewhere (the
-//    lights estimated over the whole map), and with it Ks and m are measured on the lobe's flanks;
+//    observations show of it. Lobes held at fixed_directions are exempt where at least lobe_support observations see
+//    them above the noise (phong_lobe_seen_count): their direction comes from elsewhere (the lights estimated over
+//    the whole map), and with it Ks and m are measured on the lobe's flanks. Where fewer see them, Ks and m are not
+//    measured (they trade along what one view saw) and the cap applies to them too;
 //  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC and stands
 //    above the fit's noise (phong_lobe_snr >= kLobeDetectionSnr); the lobe count is chosen among 0..K, so a diffuse
 //    texel gets no lobe.
@@ -130,6 +132,15 @@ inline constexpr double kLobeDetectionSnr = 20.0;
 /// observed directions, over `noise_rms` (the RMS of one residual of the fit, per channel and observation). +inf for
 /// noise_rms 0.
 double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
+
+/// The level, in units of the fit's residual noise, at which an observation sees a lobe (phong_lobe_seen_count).
+inline constexpr double kLobeSeenSnr = 3.0;
+
+/// How many observations of `obs` see `lobe`: its contribution there (the largest channel of ks cos^m) is at least
+/// kLobeSeenSnr x `noise_rms` (the RMS of one residual of the fit). A lobe held at a fixed direction that fewer than
+/// lobe_support observations see has an unmeasured width (Ks and m trade along what one view saw): fit_phong caps it
+/// as a free lobe (phong_support_cap).
+int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
 
 /// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
 /// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed, 3 with no lobe.

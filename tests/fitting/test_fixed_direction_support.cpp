@@ -1,0 +1,78 @@
+// A lobe held at a fixed direction (PhongFitOptions::fixed_directions, the shared-lights refit) that the observations
+// barely see: its peak must stay near what they allow, not run to a highlight nothing saw (docs/models.md, "Sparse
+// views and shared lights"). On adaptive:60 sessions of lights2 such lobes reached Ks 18000 at m 5000, 2400 % relative
+// RMS between the views.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "rig_observations.hpp"
+#include "vdrig/fitting/phong.hpp"
+#include "vdrig/sim/texel_recording.hpp"
+
+namespace vdrig::fitting {
+namespace {
+
+using test_support::scheme_directions;
+
+// A narrow highlight (m = 500) whose mirror direction lies 7 deg from the nearest of 17 views and >= 25 deg from the
+// others: one view sees its flank (cos(7 deg)^500 = 2.4 % of the peak), none its shape. Observed as an 8-bit camera
+// records them. With the direction fixed and no cap, Ks and m trade along what the one view saw and the solve runs to
+// m = max_shininess; the cap (phong_support_cap, both rules) holds the peak to twice what that view saw.
+TEST(FixedDirectionSupport, LobeSeenByOneViewKeepsItsPeakNearWhatThatViewSaw) {
+  const std::vector<Vec3d> views = scheme_directions("icosahedron:1");
+  ASSERT_EQ(views.size(), 17u);
+  // The view nearest zenith 40 deg, azimuth 0; the mirror direction 7 deg from it, away from the other views' ring.
+  const Vec3d target = direction_from_spherical(0.0, deg_to_rad(40.0));
+  const Vec3d nearest = *std::max_element(
+      views.begin(), views.end(), [&](const Vec3d& a, const Vec3d& b) { return a.dot(target) < b.dot(target); });
+  const SphericalDir sd = spherical_from_direction(nearest);
+  const Vec3d mirror =
+      direction_from_spherical(sd.azimuth_rad + deg_to_rad(7.0) / std::sin(sd.zenith_rad), sd.zenith_rad);
+  std::vector<double> angles_deg;
+  for (const Vec3d& v : views) angles_deg.push_back(rad_to_deg(std::acos(std::clamp(v.dot(mirror), -1.0, 1.0))));
+  std::sort(angles_deg.begin(), angles_deg.end());
+  std::printf("mirror direction: nearest views at %.1f, %.1f, %.1f deg\n", angles_deg[0], angles_deg[1], angles_deg[2]);
+  ASSERT_NEAR(angles_deg[0], 7.0, 0.5);
+  ASSERT_GT(angles_deg[1], 20.0);
+
+  PhongParams truth;
+  truth.kd = Vec3d(0.07, 0.07, 0.07);
+  truth.lobes.push_back({Vec3d(1.0, 1.0, 1.0), mirror, 500.0});
+  const double seen = truth.lobes[0].ks.maxCoeff() * std::pow(std::cos(deg_to_rad(angles_deg[0])), 500.0);
+
+  double worst_peak = 0.0, worst_ratio = 0.0;
+  for (unsigned seed = 1; seed <= 8; ++seed) {
+    TexelObservations obs;
+    for (const Vec3d& v : views) {
+      obs.direction.push_back(v.cast<float>());
+      obs.radiance.push_back(truth.evaluate(v).cast<float>());
+      obs.view.push_back(static_cast<int>(obs.view.size()));
+    }
+    sim::record_texel(obs.radiance, {}, seed);
+    PhongFitOptions o;
+    o.fixed_directions = {mirror};
+    const PhongFit fit = fit_phong(obs, o);
+    const double peak = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].ks.maxCoeff();
+    const double m = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].shininess;
+    const double at_mirror = fit.params.evaluate(mirror).maxCoeff();
+    std::printf("seed %u: lobes %zu  Ks %.3f  m %.1f  capped %d  I(mirror) %.3f (truth %.3f; the view saw %.4f)\n",
+                seed, fit.params.lobes.size(), peak, m, fit.capped_lobes, at_mirror, truth.evaluate(mirror).maxCoeff(),
+                seen);
+    worst_peak = std::max(worst_peak, at_mirror);
+    worst_ratio = std::max(worst_ratio, peak / seen);
+  }
+  std::printf("worst: I(mirror) %.3f, peak / seen %.2f\n", worst_peak, worst_ratio);
+  // The peak is at most 1 / kLobePeakLevel = 2 times what the one view saw of it: measured 1.26 (8 seeds; 28 without
+  // the cap, m held at the coarse search's 438).
+  EXPECT_LT(worst_ratio, 2.0);
+  // The prediction at the mirror direction: measured 0.100 (0.736 without the cap). The truth's 1.07 is what the
+  // sampling cannot show, and the map does not claim it.
+  EXPECT_LT(worst_peak, 0.15);
+}
+
+}  // namespace
+}  // namespace vdrig::fitting
