@@ -403,13 +403,18 @@ PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& op
     // where fewer than lobe_support observations see it above the noise, its width is not measured -- Ks and m
     // trade along Ks c^m = what one view saw -- and the solve runs to a peak nothing saw (m in the thousands, Ks in
     // the hundreds, docs/models.md): such a lobe is capped as a free lobe is (both rules of phong_support_cap).
+    // Where lobe_support observations do see it, they measure its width only if they see it at different heights on
+    // its flank (m = ln(I1 / I2) / ln(c1 / c2)): views at about the same cosine, or a residual so small that a far
+    // flank counts as seen, leave Ks and m trading again, and the solve ran to m 1866, Ks 9e8 from two views at cos
+    // 0.9881 and 0.9880 that saw 0.21 and 0.16 of it (lights2 adaptive:60 seed 2). Such a lobe is capped too
+    // (phong_lobe_width_measured).
     const double noise_rms = fit_noise_rms(obs, fit.params, K, opt);
     bool unsupported = false;
     for (int k = 0; k < K; ++k) {
       const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
-      if (!carries_energy(fit.params, lobe) || phong_lobe_seen_count(obs, lobe, noise_rms) >= opt.lobe_support)
-        continue;
+      if (!carries_energy(fit.params, lobe)) continue;
       double& c = cap[static_cast<size_t>(k)];
+      if (phong_lobe_width_measured(obs, lobe, noise_rms, opt.lobe_support)) continue;
       c = phong_support_cap(obs, lobe.direction, opt.lobe_support);
       if (lobe.shininess > c * (1.0 + 1e-6)) unsupported = true;
     }
@@ -570,6 +575,20 @@ double phong_support_cap(const TexelObservations& obs, const Vec3d& direction, i
   };
   return std::min(cap(cosines[static_cast<size_t>(support - 1)], kLobeSupportLevel),
                   cap(cosines.front(), kLobePeakLevel));
+}
+
+bool phong_lobe_width_measured(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms, int support) {
+  int seen = 0;
+  double brightest = 0.0, faintest = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const double c = lobe.direction.dot(obs.direction[i].cast<double>().normalized());
+    const double seen_of_it = c > 0.0 ? lobe.ks.maxCoeff() * std::pow(c, lobe.shininess) : 0.0;
+    if (!(seen_of_it >= kLobeSeenSnr * noise_rms)) continue;
+    ++seen;
+    brightest = std::max(brightest, seen_of_it);
+    faintest = std::min(faintest, seen_of_it);
+  }
+  return seen >= support && brightest >= faintest / kLobePeakLevel;
 }
 
 int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {

@@ -4,6 +4,8 @@
 // RMS between the views.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -72,6 +74,57 @@ TEST(FixedDirectionSupport, LobeSeenByOneViewKeepsItsPeakNearWhatThatViewSaw) {
   // The prediction at the mirror direction: measured 0.100 (0.736 without the cap). The truth's 1.07 is what the
   // sampling cannot show, and the map does not claim it.
   EXPECT_LT(worst_peak, 0.15);
+}
+
+// A lobe held at a fixed direction that two views see at about the same cosine (8.7 and 8.9 deg from its axis, every
+// other view >= 30 deg away): both see it, but at the same height on its flank, so they do not measure its width --
+// Ks and m trade along what they saw, and the ratio of the two noisy observations sets m = ln(I1 / I2) / ln(c1 / c2).
+// On adaptive sessions such lobes ran to m 1866, Ks 9e8 (lights2 adaptive:60 seed 2; patchwork adaptive:45: m 1312,
+// Ks 4e5): phong_lobe_width_measured caps them as free lobes.
+TEST(FixedDirectionSupport, LobeSeenByTwoViewsAtTheSameCosineKeepsItsPeakNearWhatTheySaw) {
+  const Vec3d mirror = direction_from_spherical(0.3, deg_to_rad(30.0));
+  const Vec3d across = mirror.cross(Vec3d::UnitZ()).normalized();
+  const Vec3d along = across.cross(mirror).normalized();
+  std::vector<Vec3d> views;
+  for (const Vec3d& v : scheme_directions("icosahedron:1"))
+    if (v.dot(mirror) < std::cos(deg_to_rad(30.0))) views.push_back(v);
+  // The two near views, on either side of the axis (across the plane of incidence, both above the horizon).
+  views.push_back(Eigen::AngleAxisd(deg_to_rad(8.7), along) * mirror);
+  views.push_back(Eigen::AngleAxisd(-deg_to_rad(8.9), along) * mirror);
+  ASSERT_GE(views.size(), 12u);
+
+  PhongParams truth;
+  truth.kd = Vec3d(0.07, 0.07, 0.07);
+  truth.lobes.push_back({Vec3d(0.5, 0.5, 0.5), mirror, 60.0});
+  const double seen = 0.5 * std::pow(std::cos(deg_to_rad(8.7)), 60.0);
+
+  double worst_peak = 0.0, worst_ratio = 0.0;
+  for (unsigned seed = 1; seed <= 16; ++seed) {
+    TexelObservations obs;
+    for (const Vec3d& v : views) {
+      obs.direction.push_back(v.cast<float>());
+      obs.radiance.push_back(truth.evaluate(v).cast<float>());
+      obs.view.push_back(static_cast<int>(obs.view.size()));
+    }
+    sim::record_texel(obs.radiance, {}, seed);
+    PhongFitOptions o;
+    o.fixed_directions = {mirror};
+    const PhongFit fit = fit_phong(obs, o);
+    const double peak = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].ks.maxCoeff();
+    const double m = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].shininess;
+    const double at_mirror = fit.params.evaluate(mirror).maxCoeff();
+    std::printf("seed %u: lobes %zu  Ks %.3g  m %.1f  capped %d  I(mirror) %.3g (truth %.3f; the views saw %.3f)\n",
+                seed, fit.params.lobes.size(), peak, m, fit.capped_lobes, at_mirror, truth.evaluate(mirror).maxCoeff(),
+                seen);
+    worst_peak = std::max(worst_peak, at_mirror);
+    worst_ratio = std::max(worst_ratio, peak / seen);
+  }
+  std::printf("worst: I(mirror) %.3g, peak / seen %.3g\n", worst_peak, worst_ratio);
+  // Capped (rule (b) of phong_support_cap), the peak is at most 1 / kLobePeakLevel = 2 times what the nearer view
+  // saw: measured 2.02 over 16 seeds (2.67 without phong_lobe_width_measured, m free to 83.5). The prediction at the
+  // mirror direction: measured 0.575 (0.736 before; the truth is 0.570).
+  EXPECT_LT(worst_ratio, 2.2);
+  EXPECT_LT(worst_peak, 0.62);
 }
 
 }  // namespace

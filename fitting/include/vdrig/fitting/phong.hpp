@@ -22,8 +22,10 @@
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
 //    observations show of it. Lobes held at fixed_directions are exempt where at least lobe_support observations see
 //    them above the noise (phong_lobe_seen_count): their direction comes from elsewhere (the lights estimated over
-//    the whole map), and with it Ks and m are measured on the lobe's flanks. Where fewer see them, Ks and m are not
-//    measured (they trade along what one view saw) and the cap applies to them too;
+//    the whole map), and with it Ks and m are measured on the lobe's flanks -- where the views that see it see it
+//    fall by >= 1 / kLobePeakLevel between them (phong_lobe_width_measured). Where fewer see them, or all at about
+//    the same height on the flank, Ks and m are not measured (they trade along what the views saw) and the cap of
+//    free lobes applies to them, so their peak too stays within a bounded factor of what the observations show;
 //  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC and stands
 //    above the fit's noise (phong_lobe_snr >= kLobeDetectionSnr); the lobe count is chosen among 0..K, so a diffuse
 //    texel gets no lobe.
@@ -141,6 +143,13 @@ inline constexpr double kLobeSeenSnr = 3.0;
 /// lobe_support observations see has an unmeasured width (Ks and m trade along what one view saw): fit_phong caps it
 /// as a free lobe (phong_support_cap).
 int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
+
+/// Whether the observations of `obs` measure the width of `lobe` (held at a fixed direction): at least `support` of
+/// them see it (kLobeSeenSnr x `noise_rms`, as phong_lobe_seen_count) and those that see it show it falling by at
+/// least 1 / kLobePeakLevel between them (the brightest sees >= twice what the faintest does), so Ks and m are read
+/// off its flank. Views that see it at about the same cosine leave Ks and m trading along what they saw, and the peak
+/// unbounded: fit_phong caps such a lobe as a free lobe (phong_support_cap).
+bool phong_lobe_width_measured(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms, int support);
 
 /// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
 /// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed, 3 with no lobe.
