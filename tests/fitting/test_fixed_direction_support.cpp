@@ -20,6 +20,37 @@ namespace {
 
 using test_support::scheme_directions;
 
+/// The worst, over `seeds` seeds of 8-bit noise (sim::record_texel), of a fit with the lobe held at `mirror`: the
+/// prediction there, and the fitted peak over `seen`, what the nearest view saw of the truth's lobe.
+struct Worst {
+  double at_mirror = 0.0, peak_over_seen = 0.0;
+};
+Worst fit_over_seeds(const std::vector<Vec3d>& views, const PhongParams& truth, const Vec3d& mirror, double seen,
+                     unsigned seeds) {
+  Worst worst;
+  for (unsigned seed = 1; seed <= seeds; ++seed) {
+    TexelObservations obs;
+    for (const Vec3d& v : views) {
+      obs.direction.push_back(v.cast<float>());
+      obs.radiance.push_back(truth.evaluate(v).cast<float>());
+      obs.view.push_back(static_cast<int>(obs.view.size()));
+    }
+    sim::record_texel(obs.radiance, {}, seed);
+    PhongFitOptions o;
+    o.fixed_directions = {mirror};
+    const PhongFit fit = fit_phong(obs, o);
+    const double peak = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].ks.maxCoeff();
+    const double m = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].shininess;
+    const double at_mirror = fit.params.evaluate(mirror).maxCoeff();
+    std::printf("seed %u: lobes %zu  Ks %.3g  m %.1f  capped %d  I(mirror) %.3g (truth %.3f; seen %.4f)\n", seed,
+                fit.params.lobes.size(), peak, m, fit.capped_lobes, at_mirror, truth.evaluate(mirror).maxCoeff(), seen);
+    worst.at_mirror = std::max(worst.at_mirror, at_mirror);
+    worst.peak_over_seen = std::max(worst.peak_over_seen, peak / seen);
+  }
+  std::printf("worst: I(mirror) %.3g, peak / seen %.3g\n", worst.at_mirror, worst.peak_over_seen);
+  return worst;
+}
+
 // A narrow highlight (m = 500) whose mirror direction lies 7 deg from the nearest of 17 views and >= 25 deg from the
 // others: one view sees its flank (cos(7 deg)^500 = 2.4 % of the peak), none its shape. Observed as an 8-bit camera
 // records them. With the direction fixed and no cap, Ks and m trade along what the one view saw and the solve runs to
@@ -46,34 +77,13 @@ TEST(FixedDirectionSupport, LobeSeenByOneViewKeepsItsPeakNearWhatThatViewSaw) {
   truth.lobes.push_back({Vec3d(1.0, 1.0, 1.0), mirror, 500.0});
   const double seen = truth.lobes[0].ks.maxCoeff() * std::pow(std::cos(deg_to_rad(angles_deg[0])), 500.0);
 
-  double worst_peak = 0.0, worst_ratio = 0.0;
-  for (unsigned seed = 1; seed <= 8; ++seed) {
-    TexelObservations obs;
-    for (const Vec3d& v : views) {
-      obs.direction.push_back(v.cast<float>());
-      obs.radiance.push_back(truth.evaluate(v).cast<float>());
-      obs.view.push_back(static_cast<int>(obs.view.size()));
-    }
-    sim::record_texel(obs.radiance, {}, seed);
-    PhongFitOptions o;
-    o.fixed_directions = {mirror};
-    const PhongFit fit = fit_phong(obs, o);
-    const double peak = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].ks.maxCoeff();
-    const double m = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].shininess;
-    const double at_mirror = fit.params.evaluate(mirror).maxCoeff();
-    std::printf("seed %u: lobes %zu  Ks %.3f  m %.1f  capped %d  I(mirror) %.3f (truth %.3f; the view saw %.4f)\n",
-                seed, fit.params.lobes.size(), peak, m, fit.capped_lobes, at_mirror, truth.evaluate(mirror).maxCoeff(),
-                seen);
-    worst_peak = std::max(worst_peak, at_mirror);
-    worst_ratio = std::max(worst_ratio, peak / seen);
-  }
-  std::printf("worst: I(mirror) %.3f, peak / seen %.2f\n", worst_peak, worst_ratio);
+  const Worst worst = fit_over_seeds(views, truth, mirror, seen, 8);
   // The peak is at most 1 / kLobePeakLevel = 2 times what the one view saw of it: measured 1.26 (8 seeds; 28 without
   // the cap, m held at the coarse search's 438).
-  EXPECT_LT(worst_ratio, 2.0);
+  EXPECT_LT(worst.peak_over_seen, 2.0);
   // The prediction at the mirror direction: measured 0.100 (0.736 without the cap). The truth's 1.07 is what the
   // sampling cannot show, and the map does not claim it.
-  EXPECT_LT(worst_peak, 0.15);
+  EXPECT_LT(worst.at_mirror, 0.15);
 }
 
 // A lobe held at a fixed direction that two views see at about the same cosine (8.7 and 8.9 deg from its axis, every
@@ -98,33 +108,12 @@ TEST(FixedDirectionSupport, LobeSeenByTwoViewsAtTheSameCosineKeepsItsPeakNearWha
   truth.lobes.push_back({Vec3d(0.5, 0.5, 0.5), mirror, 60.0});
   const double seen = 0.5 * std::pow(std::cos(deg_to_rad(8.7)), 60.0);
 
-  double worst_peak = 0.0, worst_ratio = 0.0;
-  for (unsigned seed = 1; seed <= 16; ++seed) {
-    TexelObservations obs;
-    for (const Vec3d& v : views) {
-      obs.direction.push_back(v.cast<float>());
-      obs.radiance.push_back(truth.evaluate(v).cast<float>());
-      obs.view.push_back(static_cast<int>(obs.view.size()));
-    }
-    sim::record_texel(obs.radiance, {}, seed);
-    PhongFitOptions o;
-    o.fixed_directions = {mirror};
-    const PhongFit fit = fit_phong(obs, o);
-    const double peak = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].ks.maxCoeff();
-    const double m = fit.params.lobes.empty() ? 0.0 : fit.params.lobes[0].shininess;
-    const double at_mirror = fit.params.evaluate(mirror).maxCoeff();
-    std::printf("seed %u: lobes %zu  Ks %.3g  m %.1f  capped %d  I(mirror) %.3g (truth %.3f; the views saw %.3f)\n",
-                seed, fit.params.lobes.size(), peak, m, fit.capped_lobes, at_mirror, truth.evaluate(mirror).maxCoeff(),
-                seen);
-    worst_peak = std::max(worst_peak, at_mirror);
-    worst_ratio = std::max(worst_ratio, peak / seen);
-  }
-  std::printf("worst: I(mirror) %.3g, peak / seen %.3g\n", worst_peak, worst_ratio);
+  const Worst worst = fit_over_seeds(views, truth, mirror, seen, 16);
   // Capped (rule (b) of phong_support_cap), the peak is at most 1 / kLobePeakLevel = 2 times what the nearer view
   // saw: measured 2.02 over 16 seeds (2.67 without phong_lobe_width_measured, m free to 83.5). The prediction at the
   // mirror direction: measured 0.575 (0.736 before; the truth is 0.570).
-  EXPECT_LT(worst_ratio, 2.2);
-  EXPECT_LT(worst_peak, 0.62);
+  EXPECT_LT(worst.peak_over_seen, 2.2);
+  EXPECT_LT(worst.at_mirror, 0.62);
 }
 
 }  // namespace
