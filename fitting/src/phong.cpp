@@ -373,10 +373,10 @@ bool carries_energy(const PhongParams& params, const PhongLobe& lobe) {
 }
 
 /// The RMS of one residual of `params` over `obs` (per channel and observation, unweighted, over the degrees of
-/// freedom left by a K-lobe fit), floored at 1e-6 of the observations' RMS (float32 round-off), as LobeCountBic.
-double fit_noise_rms(const TexelObservations& obs, const PhongParams& params, int lobes, const PhongFitOptions& opt) {
+/// freedom left by a fit with `parameters` free parameters), floored at 1e-6 of the observations' RMS (float32
+/// round-off): the noise a lobe is detected (LobeCountBic) or seen (phong_lobe_width_measured) against.
+double fit_noise_rms(const TexelObservations& obs, const PhongParams& params, int parameters) {
   const int n = static_cast<int>(3 * obs.size());
-  const int parameters = phong_parameter_count(lobes, opt.shared_shininess, !opt.fixed_directions.empty());
   double sq = 0.0, observed = 0.0;
   for (size_t i = 0; i < obs.size(); ++i) {
     sq += (params.evaluate(obs.direction[i].cast<double>()) - obs.radiance[i].cast<double>()).squaredNorm();
@@ -408,7 +408,8 @@ PhongFit solve_supported(const TexelObservations& obs, const PhongFitOptions& op
     // flank counts as seen, leave Ks and m trading again, and the solve ran to m 1866, Ks 9e8 from two views at cos
     // 0.9881 and 0.9880 that saw 0.21 and 0.16 of it (lights2 adaptive:60 seed 2). Such a lobe is capped too
     // (phong_lobe_width_measured).
-    const double noise_rms = fit_noise_rms(obs, fit.params, K, opt);
+    const double noise_rms =
+        fit_noise_rms(obs, fit.params, phong_parameter_count(K, opt.shared_shininess, /*fixed_directions=*/true));
     bool unsupported = false;
     for (int k = 0; k < K; ++k) {
       const PhongLobe& lobe = fit.params.lobes[static_cast<size_t>(k)];
@@ -535,10 +536,7 @@ class LobeCountBic {
   double operator()(int lobes, const PhongFit& fit) const {
     const int parameters = phong_parameter_count(lobes, shared_, fixed_);
     if (lobes > 0 && check_detection_) {
-      double sq = 0.0;
-      for (size_t i = 0; i < obs_.size(); ++i)
-        sq += (fit.params.evaluate(obs_.direction[i].cast<double>()) - obs_.radiance[i].cast<double>()).squaredNorm();
-      const double noise_rms = std::max(std::sqrt(sq / std::max(1, n_ - parameters)), 1e-6 * rms_observed_);
+      const double noise_rms = fit_noise_rms(obs_, fit.params, parameters);
       for (size_t k = 0; k < fit.params.lobes.size(); ++k)
         if (phong_lobe_snr(obs_, fit.params.lobes[k], noise_rms) < kLobeDetectionSnr)
           return std::numeric_limits<double>::infinity();
@@ -589,15 +587,6 @@ bool phong_lobe_width_measured(const TexelObservations& obs, const PhongLobe& lo
     faintest = std::min(faintest, seen_of_it);
   }
   return seen >= support && brightest >= faintest / kLobePeakLevel;
-}
-
-int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {
-  int seen = 0;
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const double c = lobe.direction.dot(obs.direction[i].cast<double>().normalized());
-    if (c > 0.0 && lobe.ks.maxCoeff() * std::pow(c, lobe.shininess) >= kLobeSeenSnr * noise_rms) ++seen;
-  }
-  return seen;
 }
 
 double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {

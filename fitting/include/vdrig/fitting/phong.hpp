@@ -21,7 +21,7 @@
 //    where the lobe is >= kLobeSupportLevel of its peak. A lobe narrower than the sampling around it has its shininess
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
 //    observations show of it. Lobes held at fixed_directions are exempt where at least lobe_support observations see
-//    them above the noise (phong_lobe_seen_count): their direction comes from elsewhere (the lights estimated over
+//    them above the noise (phong_lobe_width_measured): their direction comes from elsewhere (the lights estimated over
 //    the whole map), and with it Ks and m are measured on the lobe's flanks -- where the views that see it see it
 //    fall by >= 1 / kLobePeakLevel between them (phong_lobe_width_measured). Where fewer see them, or all at about
 //    the same height on the flank, Ks and m are not measured (they trade along what the views saw) and the cap of
@@ -135,17 +135,12 @@ inline constexpr double kLobeDetectionSnr = 20.0;
 /// noise_rms 0.
 double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
 
-/// The level, in units of the fit's residual noise, at which an observation sees a lobe (phong_lobe_seen_count).
+/// The level, in units of the fit's residual noise, at which an observation sees a lobe (phong_lobe_width_measured).
 inline constexpr double kLobeSeenSnr = 3.0;
 
-/// How many observations of `obs` see `lobe`: its contribution there (the largest channel of ks cos^m) is at least
-/// kLobeSeenSnr x `noise_rms` (the RMS of one residual of the fit). A lobe held at a fixed direction that fewer than
-/// lobe_support observations see has an unmeasured width (Ks and m trade along what one view saw): fit_phong caps it
-/// as a free lobe (phong_support_cap).
-int phong_lobe_seen_count(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms);
-
 /// Whether the observations of `obs` measure the width of `lobe` (held at a fixed direction): at least `support` of
-/// them see it (kLobeSeenSnr x `noise_rms`, as phong_lobe_seen_count) and those that see it show it falling by at
+/// them see it (its contribution there, the largest channel of ks cos^m, is at least kLobeSeenSnr x `noise_rms`, the
+/// RMS of one residual of the fit) and those that see it show it falling by at
 /// least 1 / kLobePeakLevel between them (the brightest sees >= twice what the faintest does), so Ks and m are read
 /// off its flank. Views that see it at about the same cosine leave Ks and m trading along what they saw, and the peak
 /// unbounded: fit_phong caps such a lobe as a free lobe (phong_support_cap).
