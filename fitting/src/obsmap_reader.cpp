@@ -81,9 +81,10 @@ Result<ObsMapReader> ObsMapReader::open(const fs::path& path) {
   VDRIG_TRY(read_at(m.fd.get(), path, h.data(), h.size(), 0));
   if (std::memcmp(h.data(), kMagic, 8) != 0) return m.corrupt("not an observation-map file (magic is not VDRIGOBS)");
   const uint32_t version = get<uint32_t>(h, kAtVersion);
-  if (version != kObsFileVersion)
+  if (version < kObsFileOldestVersion || version > kObsFileVersion)
     return make_error(ErrorCode::kUnsupported, path.string() + ": observation-map format version " +
-                                                   std::to_string(version) + ", this build reads version " +
+                                                   std::to_string(version) + ", this build reads versions " +
+                                                   std::to_string(kObsFileOldestVersion) + " to " +
                                                    std::to_string(kObsFileVersion));
   if (!obsmap_checksum_matches(get<uint64_t>(h, kAtHeaderChecksum), h.data(), kAtHeaderChecksum))
     return m.corrupt("header checksum mismatch (damaged header)");

@@ -136,7 +136,9 @@ Result<fs::path> session_obsmap_file(const capture::Session& session, int S, int
     const auto built = fs::last_write_time(path, ec);
     if (ec) return false;
     auto reader = fitting::ObsMapReader::open(path);
-    if (!reader || reader->views() != views || reader->spec().texels_s != S || reader->spec().texels_t != T)
+    // An older format's map was sampled by older rules (version 2 flags grazing samples kObsCoarse): rebuilt.
+    if (!reader || reader->header().version < fitting::kObsFileVersion || reader->views() != views ||
+        reader->spec().texels_s != S || reader->spec().texels_t != T)
       return false;
     for (const auto& v : session.manifest().views) {
       const auto t = fs::last_write_time(layout.hdr_file(v.index), ec);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -219,12 +220,23 @@ TEST(ObsMapFile, TruncatedAndCorruptFilesAreRejectedWithTheReason) {
     EXPECT_NE(r.error().message.find("magic"), std::string::npos) << r.error().message;
     // A newer format version.
     b = bytes;
-    b[8] = 2;
+    b[8] = 3;
     spit(bad, b);
     r = ObsMapReader::open(bad);
     ASSERT_FALSE(r);
     EXPECT_EQ(r.error().code, ErrorCode::kUnsupported);
-    EXPECT_NE(r.error().message.find("version 2"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("version 3"), std::string::npos) << r.error().message;
+    // A version-1 file (before grazing samples were flagged; the same layout) is still read, as written.
+    ASSERT_EQ(static_cast<unsigned char>(bytes[8]), kObsFileVersion);
+    b = bytes;
+    b[8] = 1;
+    const uint64_t checksum = obsfile_hash64(b.data(), 120);
+    std::memcpy(b.data() + 120, &checksum, sizeof checksum);
+    spit(bad, b);
+    r = ObsMapReader::open(bad);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_EQ(r->header().version, 1u);
+    EXPECT_EQ(r->views(), static_cast<int>(f.views.size()));
     // A damaged header field (texels_s).
     b = bytes;
     b[16] ^= 0x04;

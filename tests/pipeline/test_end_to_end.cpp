@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 
 #include "vdrig/core/image_io.hpp"
+#include "vdrig/fitting/obsmap_file.hpp"
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/scene.hpp"
@@ -173,6 +176,20 @@ TEST_F(EndToEnd, StreamedObservationMapFileMatchesTheInMemoryMap) {
   fs::last_write_time(hdr0, built_at + std::chrono::seconds(5));
   ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
   EXPECT_NE(fs::last_write_time(cached.value()), built_at) << "a newer HDR view makes it stale";
+  {  // A map of an older format version (sampled by older rules, grazing samples unflagged) is rebuilt too.
+    std::vector<char> bytes(fs::file_size(cached.value()));
+    std::ifstream(cached.value(), std::ios::binary).read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    bytes[8] = 1;
+    const uint64_t checksum = fitting::obsfile_hash64(bytes.data(), 120);
+    std::memcpy(bytes.data() + 120, &checksum, sizeof checksum);
+    std::ofstream(cached.value(), std::ios::binary | std::ios::trunc)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    ASSERT_EQ(fitting::ObsMapReader::open(cached.value())->header().version, 1u);
+    ASSERT_TRUE(session_obsmap_file(session.value(), 20, 12));
+    auto rebuilt = fitting::ObsMapReader::open(cached.value());
+    ASSERT_TRUE(rebuilt);
+    EXPECT_EQ(rebuilt->header().version, fitting::kObsFileVersion) << "a version-1 map is not reused";
+  }
 
   // A view without its HDR image: a clear error, and nothing at the output path.
   fs::remove(hdr0);

@@ -22,7 +22,12 @@
 
 namespace vdrig::fitting {
 
-inline constexpr uint32_t kObsFileVersion = 1;
+/// The version written. 2 (2026-12-05): grazing samples whose pixel footprint is wider than a texel are flagged
+/// kObsCoarse (obsmap.hpp) instead of stored as observations; the layout is version 1's. A reader takes 1 and 2
+/// (kObsFileOldestVersion): a version-1 file reads as it was written, its grazing samples unflagged, and a session's
+/// cached map of an older version is rebuilt (pipeline::session_obsmap_file).
+inline constexpr uint32_t kObsFileVersion = 2;
+inline constexpr uint32_t kObsFileOldestVersion = 1;
 
 enum class ObsCompression : uint32_t { kNone = 0, kZstd = 1 };
 
