@@ -91,7 +91,7 @@ Status run_info(const std::string& path) {
   if (h.views == 0) return Status::ok();
 
   // Statistics over every observation, one tile in memory at a time.
-  uint64_t by_flag[6] = {};
+  uint64_t by_flag[7] = {};
   uint64_t other_flags = 0;
   int min_valid = std::numeric_limits<int>::max(), max_valid = 0;
   uint64_t texels_without = 0, sum_valid = 0;
@@ -110,7 +110,7 @@ Status run_info(const std::string& path) {
               ++valid_per_view[v];
             }
             const int bit = f == 0 ? 0 : 1 + std::countr_zero(static_cast<unsigned>(f));
-            if (bit < 6 && (f & (f - 1)) == 0)
+            if (bit < 7 && (f & (f - 1)) == 0)
               ++by_flag[bit];
             else
               ++other_flags;
@@ -123,9 +123,10 @@ Status run_info(const std::string& path) {
     }
   const double total = static_cast<double>(h.spec.texels_s) * h.spec.texels_t * h.views;
   const double texels = static_cast<double>(h.spec.texels_s) * h.spec.texels_t;
-  const char* names[6] = {"valid", "outside image", "back-facing", "clipped", "excluded view", "occluded"};
+  const char* names[7] = {"valid",         "outside image", "back-facing",     "clipped",
+                          "excluded view", "occluded",      "coarse (grazing)"};
   std::printf("  observations  %.0f\n", total);
-  for (int i = 0; i < 6; ++i)
+  for (int i = 0; i < 7; ++i)
     std::printf("    %-14s %12llu  %6.2f%%\n", names[i], static_cast<unsigned long long>(by_flag[i]),
                 100.0 * static_cast<double>(by_flag[i]) / total);
   if (other_flags) std::printf("    %-14s %12llu\n", "other flags", static_cast<unsigned long long>(other_flags));

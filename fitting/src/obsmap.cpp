@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/core/utility.hpp>
 
 #include "vdrig/core/geometry.hpp"
@@ -73,6 +74,29 @@ uint8_t ObservationMap::observation(int s, int t, int view, Eigen::Vector3f* rgb
   return flags_[i];
 }
 
+double pixel_footprint_mm(const CameraModel& camera, const ViewPose& pose, const Vec3d& p_mm) {
+  const Vec3d pc = pose.to_camera(p_mm);
+  if (!(pc.z() > 0.0)) return std::numeric_limits<double>::infinity();
+  // d(pixel) / d(surface x, y) by central differences over a step small against any footprint (0.01 mm), large
+  // against round-off at rig distances (metres).
+  constexpr double kStepMm = 0.01;
+  const Vec2d dx = (camera.project(pose.to_camera(p_mm + Vec3d(kStepMm, 0, 0))) -
+                    camera.project(pose.to_camera(p_mm - Vec3d(kStepMm, 0, 0)))) /
+                   (2 * kStepMm);
+  const Vec2d dy = (camera.project(pose.to_camera(p_mm + Vec3d(0, kStepMm, 0))) -
+                    camera.project(pose.to_camera(p_mm - Vec3d(0, kStepMm, 0)))) /
+                   (2 * kStepMm);
+  // Singular values of the 2x2 J = [dx dy]: s^2 = (q +- sqrt(q^2 - 4 det^2)) / 2, q = |J|_F^2. The smallest pixel
+  // change per mm is the longest mm per pixel.
+  const double q = dx.squaredNorm() + dy.squaredNorm();
+  const double det = dx.x() * dy.y() - dx.y() * dy.x();
+  const double s_min2 = 0.5 * (q - std::sqrt(std::max(0.0, q * q - 4.0 * det * det)));
+  // det^2 / s_max^2 is the same value computed without cancellation when s_min << s_max (grazing).
+  const double s_max2 = q - s_min2;
+  const double s_min = s_max2 > 0.0 ? std::abs(det) / std::sqrt(s_max2) : 0.0;
+  return s_min > 0.0 ? 1.0 / s_min : std::numeric_limits<double>::infinity();
+}
+
 uint8_t observe_texel(const ObservationMapSpec& spec, const ViewInput& in, int s, int t, Eigen::Vector3f* rgb,
                       Eigen::Vector3f* dir) {
   const Vec3d p = texel_centre_mm(s, t, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
@@ -87,6 +111,15 @@ uint8_t observe_texel(const ObservationMapSpec& spec, const ViewInput& in, int s
     // sample_bilinear may have left nothing or garbage: an unusable observation carries zero radiance.
     *rgb = Eigen::Vector3f::Zero();
     return kObsOutside;
+  }
+  // A sample blending more of the surface than the texel (or, on a map finer than the camera resolves, than the
+  // camera resolves square-on) is not an observation of this texel (kMaxFootprintTexels).
+  const double texel_mm = std::min(spec.width_mm / spec.texels_s, spec.height_mm / spec.texels_t);
+  const double square_on_mm = pc.norm() / std::sqrt(in.camera.fx * in.camera.fy);
+  if (pixel_footprint_mm(in.camera, in.pose, p) >
+      std::max(kMaxFootprintTexels * texel_mm, kMaxFootprintStretch * square_on_mm)) {
+    *rgb = Eigen::Vector3f::Zero();
+    return kObsCoarse;
   }
   if (!in.clip_mask.empty()) {
     const int xi = static_cast<int>(std::lround(px.x())), yi = static_cast<int>(std::lround(px.y()));

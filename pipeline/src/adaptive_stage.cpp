@@ -404,6 +404,22 @@ class CoarseFitPlanner final : public capture::ViewPlanner {
       const fitting::ViewInput input = view_input(session, views[k], camera.value(), req.geometry, &error);
       if (!error) return error.error();
       fitting::add_view(map, static_cast<int>(k), input);
+      // The planner keeps the grazing samples the observation map flags kObsCoarse (docs/sampling.md, "Grazing
+      // views"): their blur biases a texel's final fit, but here they tell the coarse fits which directions were seen
+      // and where the highlights are, which is what the planner was tuned on (without them the narrow-highlight test
+      // put 10 of 23 views in the cone, not 12).
+      for (int t = 0; t < spec.texels_t; ++t)
+        for (int s = 0; s < spec.texels_s; ++s) {
+          if (map.flag(s, t, static_cast<int>(k)) != fitting::kObsCoarse) continue;
+          const Vec3d p = texel_centre_mm(s, t, spec.texels_s, spec.texels_t, spec.width_mm, spec.height_mm);
+          const Vec2d px = input.camera.project(input.pose.to_camera(p));
+          Eigen::Vector3f rgb;
+          if (!fitting::sample_bilinear(input.radiance_bgr, px.x(), px.y(), &rgb)) continue;
+          if (!input.clip_mask.empty() &&
+              input.clip_mask.at<uint8_t>(static_cast<int>(std::lround(px.y())), static_cast<int>(std::lround(px.x()))))
+            continue;
+          map.set(s, t, static_cast<int>(k), rgb, input.pose.view_direction(p).cast<float>(), fitting::kObsValid);
+        }
     }
     // Held out for the predicted error: the last batch (what the fit before it predicted there), or, after the base,
     // every fourth base view.

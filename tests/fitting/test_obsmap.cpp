@@ -329,5 +329,63 @@ TEST(ObsMapFile, FullDiskIsNoSpaceAndLeavesThePreviousFileAlone) {
   }
 }
 
+// A grazing view's pixel footprint (kObsCoarse, kMaxFootprintTexels): a 32 x 32 map over 1000 mm (31.25 mm texels)
+// whose centre texel lies in a disc of radius 45 mm and radiance 0.5 on a surface of 0.05 -- the whole texel is the
+// disc's, its corners 22 mm from the centre -- seen from 2000 mm by a 200 x 150, f = 300 camera
+// (6.7 mm a pixel square-on), rendered by ray casting one point per pixel as the simulator does. At zenith 84 deg a
+// pixel spans 6.7 / cos(84) = 64 mm along the view's azimuth, so the bilinear sample at the texel centre reaches
+// past the disc: before kObsCoarse that view was a valid observation of 0.39-0.43 (14-23 % off). At 60 deg (13 mm) the
+// sample is the disc's exactly.
+TEST(ObsMapFootprint, GrazingViewWiderThanATexelIsNotAnObservation) {
+  const ObservationMapSpec spec{32, 32, 1000.0, 1000.0};
+  const CameraModel cam{200, 150, 300.0, 300.0, 99.5, 74.5, 0.0, 0.0, 0.0, 0.0, 0.0};
+  const rig::RigGeometry geometry{2000.0, Vec3d::Zero()};
+  const Vec3d centre = texel_centre_mm(16, 16, 32, 32, 1000.0, 1000.0);
+  auto render = [&](double zenith_deg, double pan_deg) {
+    ViewInput in;
+    in.camera = cam;
+    in.pose = rig::surface_pose(geometry, PanTilt{deg_to_rad(pan_deg), deg_to_rad(zenith_deg)});
+    in.radiance_bgr.create(cam.height, cam.width, CV_32FC3);
+    const Vec3d eye = in.pose.camera_centre();
+    for (int y = 0; y < cam.height; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        const Vec3d ray = in.pose.R.transpose() * cam.pixel_ray(Vec2d(x, y));
+        float value = 0.0f;
+        if (ray.z() < 0) {
+          const Vec3d hit = eye + ray * (-eye.z() / ray.z());
+          value = std::hypot(hit.x() - centre.x(), hit.y() - centre.y()) < 45.0 ? 0.5f : 0.05f;
+        }
+        in.radiance_bgr.at<cv::Vec3f>(y, x) = cv::Vec3f(value, value, value);
+      }
+    return in;
+  };
+  for (const double pan : {0.0, 37.0}) {
+    const ViewInput grazing = render(84.0, pan);
+    // The footprint against its closed form at the surface's centre: distance / (f cos zenith).
+    const double distance_mm = (grazing.pose.camera_centre() - centre).norm();
+    const double zenith = std::acos(grazing.pose.view_direction(centre).z());
+    EXPECT_NEAR(pixel_footprint_mm(cam, grazing.pose, centre) / (distance_mm / (300.0 * std::cos(zenith))), 1.0, 0.02);
+    Eigen::Vector3f rgb, dir;
+    EXPECT_EQ(observe_texel(spec, grazing, 16, 16, &rgb, &dir), kObsCoarse) << "pan " << pan;
+    EXPECT_GT(std::acos(dir.z()) * 180 / kPi, 83.0);  // the direction is kept (plots show where it would have been)
+    // What the sample would have been: the surroundings mixed in.
+    Eigen::Vector3f mixed;
+    const Vec2d px = cam.project(grazing.pose.to_camera(centre));
+    ASSERT_TRUE(sample_bilinear(grazing.radiance_bgr, px.x(), px.y(), &mixed));
+    EXPECT_LT(mixed.x(), 0.45f);  // measured 0.386 (pan 0), 0.431 (pan 37)
+    const ViewInput oblique = render(60.0, pan);
+    EXPECT_LT(pixel_footprint_mm(cam, oblique.pose, centre), 15.0);
+    ASSERT_EQ(observe_texel(spec, oblique, 16, 16, &rgb, &dir), kObsValid) << "pan " << pan;
+    EXPECT_NEAR(rgb.x(), 0.5f, 1e-6f);
+    // A map finer than a pixel square-on (256 x 256: 3.9 mm texels against 6.7 mm) keeps its oblique views up to
+    // kMaxFootprintStretch times the square-on footprint (about 75 deg), not only those within a texel (none).
+    const ObservationMapSpec fine{256, 256, 1000.0, 1000.0};
+    EXPECT_EQ(observe_texel(fine, oblique, 128, 128, &rgb, &dir), kObsValid) << "pan " << pan;
+    EXPECT_EQ(observe_texel(fine, render(72.0, pan), 128, 128, &rgb, &dir), kObsValid) << "pan " << pan;
+    EXPECT_EQ(observe_texel(fine, render(78.0, pan), 128, 128, &rgb, &dir), kObsCoarse) << "pan " << pan;
+    EXPECT_EQ(observe_texel(fine, grazing, 128, 128, &rgb, &dir), kObsCoarse) << "pan " << pan;
+  }
+}
+
 }  // namespace
 }  // namespace vdrig::fitting

@@ -22,7 +22,27 @@ enum ObservationFlag : uint8_t {
   kObsClipped = 4,     // clipped in every exposure (HDR mask)
   kObsExcluded = 8,    // the view was excluded by calibration
   kObsOccluded = 16,   // covered by a marker or another known occluder
+  kObsCoarse = 32,     // the pixel's footprint on the surface is too wide (a grazing view): the sample mixes the
+                       // texel's neighbours (kMaxFootprintTexels, observe_texel, docs/obsmap.md)
 };
+
+/// The widest footprint, in texels, of one image pixel on the surface that still makes an observation of the texel.
+/// The bilinear sample at the texel centre blends the pixels within +-1 pixel, i.e. the surface within +-footprint of
+/// the centre; at zenith z the footprint grows as 1 / cos(z) along the view's azimuth, so at 80-85 deg a sample reaches
+/// two texels and more away and mixes in neighbouring materials (the edge of the surface, the next patch): on the
+/// simulator's patchwork at 32x32 texels that biased Lambertian texels by 1-2 % relative RMS (docs/sampling.md,
+/// "Grazing views").
+inline constexpr double kMaxFootprintTexels = 1.0;
+/// ... unless the texels are finer than the camera resolves square-on: a map finer than that (the default 256 x 256
+/// with a 640 x 480 camera at 2.5 m) would lose every oblique view to kMaxFootprintTexels, so the footprint may also
+/// reach this many times the square-on footprint from the same distance (distance / focal length): views beyond a
+/// zenith of about 75 deg are then the ones dropped.
+inline constexpr double kMaxFootprintStretch = 4.0;
+
+/// The footprint of one image pixel on the surface at surface point `p_mm` (plane z = 0) in view (`camera`, `pose`):
+/// the surface distance (mm) one pixel step spans along the image direction where it is longest (1 / the smallest
+/// singular value of d(pixel) / d(surface)). +inf where the surface is seen edge-on or from behind.
+double pixel_footprint_mm(const CameraModel& camera, const ViewPose& pose, const Vec3d& p_mm);
 
 /// One view as the observation map consumes it: linear radiance (CV_32FC3, BGR), optional clip mask (CV_8UC1,
 /// non-zero = clipped everywhere), the calibrated camera and the view's pose.
@@ -80,6 +100,8 @@ class ObservationMap {
 void add_view(ObservationMap& map, int view, const ViewInput& input);
 
 /// The observation of texel (s, t) of a `spec` map in one view: radiance, direction toward the camera and flag.
+/// kObsCoarse (zero radiance, as every unusable observation) where pixel_footprint_mm exceeds both kMaxFootprintTexels
+/// texel widths (the narrower of the texel's sides) and kMaxFootprintStretch times the square-on footprint.
 /// add_view and the streaming file writer (obsmap_file.hpp) both use it, so both give identical observations.
 /// `input.radiance_bgr` must be CV_32FC3.
 uint8_t observe_texel(const ObservationMapSpec& spec, const ViewInput& input, int s, int t, Eigen::Vector3f* rgb,
