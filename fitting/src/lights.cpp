@@ -31,6 +31,7 @@ bool LightEstimationOptions::is_valid(std::string* why) const {
     return fail("exclusion_angle_rad must be in [inlier_angle_rad, pi/2)");
   if (ransac_iterations < 1) return fail("ransac_iterations must be >= 1");
   if (!(max_distance_mm > 0.0) || !std::isfinite(max_distance_mm)) return fail("max_distance_mm must be > 0");
+  if (!(min_elevation_rad >= 0.0 && min_elevation_rad < kPi / 2)) return fail("min_elevation_rad must be in [0, pi/2)");
   return true;
 }
 
@@ -41,13 +42,16 @@ struct Ray {
   double w;
 };
 
-/// The rays a light can explain: positive finite weight, finite origin, a direction of non-zero length (made unit).
-std::vector<Ray> usable_rays(const std::vector<LobeRay>& rays_in) {
+/// The rays a light can explain: positive finite weight, finite origin, a direction of non-zero length (made unit)
+/// rising at least min_elevation_rad above the surface plane.
+std::vector<Ray> usable_rays(const std::vector<LobeRay>& rays_in, const LightEstimationOptions& opt) {
   std::vector<Ray> rays;
+  const double min_z = std::sin(opt.min_elevation_rad);
   for (const LobeRay& r : rays_in) {
     const double n = r.toward_light.norm();
     if (!(r.weight > 0.0) || !std::isfinite(r.weight) || !r.origin_mm.allFinite() || !std::isfinite(n) || !(n > 0.0))
       continue;
+    if (!(r.toward_light.z() / n >= min_z)) continue;
     rays.push_back({r.origin_mm, r.toward_light / n, r.weight});
   }
   return rays;
@@ -193,7 +197,7 @@ Result<std::vector<EstimatedLight>> estimate_point_lights(const std::vector<Lobe
                                                           const LightEstimationOptions& opt) {
   std::string why;
   if (!opt.is_valid(&why)) return make_error(ErrorCode::kInvalidArgument, why);
-  const std::vector<Ray> rays = usable_rays(rays_in);
+  const std::vector<Ray> rays = usable_rays(rays_in, opt);
   std::vector<EstimatedLight> lights;
   const size_t min_inliers = static_cast<size_t>(opt.min_inliers);
   if (rays.size() < std::max<size_t>(2, min_inliers)) return lights;
@@ -287,7 +291,7 @@ Result<std::vector<EstimatedLight>> estimate_point_lights(const std::vector<Lobe
 Result<Mat3d> light_position_covariance(const std::vector<LobeRay>& rays_in, const EstimatedLight& light,
                                         const LightEstimationOptions& opt) {
   if (light.at_infinity) return make_error(ErrorCode::kInvalidArgument, "a light at infinity has no position");
-  const std::vector<Ray> rays = usable_rays(rays_in);
+  const std::vector<Ray> rays = usable_rays(rays_in, opt);
   std::vector<int> pool(rays.size());
   for (size_t i = 0; i < rays.size(); ++i) pool[i] = static_cast<int>(i);
   Model m;

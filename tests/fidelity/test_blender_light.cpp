@@ -80,48 +80,56 @@ TEST(BlenderLight, EstimatedLightPredictsHeldOutViewsAsTheRecordedOne) {
   const double direction_deg =
       rad_to_deg(angle_between(estimate->light.position_mm.normalized(), lamp_mm.normalized()));
 
+  // Both maps in one comparison, so both are scored on the same pixels (the recorded light's map, the first, defines
+  // the diffuse and highlight regions; compare_stage.hpp): compared apart, each map's own texels picked its highlight
+  // pixels, and the two figures measured different regions.
+  CompareOptions compare_options;
+  compare_options.out_dir = dir.path() / "compare";
+  auto compared = compare_maps(session.value(), {recorded->map_file, estimated->map_file}, estimated->held_out,
+                               compare_options);
+  if (!compared && compared.error().code == ErrorCode::kUnsupported)
+    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << compared.error().message;
+  ASSERT_TRUE(compared) << compared.error().describe();
   struct Figures {
-    double diffuse = 0, highlight = 0;
+    double all = 0, diffuse = 0, highlight = 0;
   };
-  const auto compare = [&](const fs::path& map_file, const fs::path& out) -> Result<Figures> {
-    CompareOptions options;
-    options.out_dir = out;
-    auto compared = compare_maps(session.value(), {map_file}, estimated->held_out, options);
-    if (!compared) return compared.error();
+  const auto figures = [&](const std::string& map_name) {
     Figures f;
-    long long dn = 0, hn = 0;
+    long long an = 0, dn = 0, hn = 0;
     for (const ViewComparison& row : compared->rows) {
+      if (row.map_name != map_name) continue;
+      f.all += row.all.mean * row.all.samples;
+      an += row.all.samples;
       f.diffuse += row.diffuse.mean * row.diffuse.samples;
       dn += row.diffuse.samples;
       f.highlight += row.highlight.mean * row.highlight.samples;
       hn += row.highlight.samples;
     }
+    f.all /= std::max(1LL, an);
     f.diffuse /= std::max(1LL, dn);
     f.highlight /= std::max(1LL, hn);
     return f;
   };
-  auto with_recorded = compare(recorded->map_file, dir.path() / "compare_recorded");
-  if (!with_recorded && with_recorded.error().code == ErrorCode::kUnsupported)
-    VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << with_recorded.error().message;
-  ASSERT_TRUE(with_recorded) << with_recorded.error().describe();
-  auto with_estimate = compare(estimated->map_file, dir.path() / "compare_estimated");
-  ASSERT_TRUE(with_estimate) << with_estimate.error().describe();
+  const Figures with_recorded = figures("recorded"), with_estimate = figures("estimated");
   std::printf(
       "capture %.1f s, all %.1f s; %s (fit with the estimate %.1f s)\n  error %.1f mm, direction %.3f deg, "
-      "distance %.1f mm; held out, recorded / estimated light: %.2f / %.2f diffuse, %.2f / %.2f highlight\n",
+      "distance %.1f mm; held out, recorded / estimated light: %.2f / %.2f all, %.2f / %.2f diffuse, %.2f / %.2f "
+      "highlight\n",
       capture_s, since_s(t0), estimate->describe().c_str(), estimate_s, error_mm.norm(), direction_deg,
-      estimate->light.position_mm.norm() - lamp_mm.norm(), with_recorded->diffuse, with_estimate->diffuse,
-      with_recorded->highlight, with_estimate->highlight);
-  // Bounds: 1.5x the figures measured (docs/blender.md): the light 0.47 deg off in direction, 586 mm (20 %) near (the
-  // clearcoat's second lobe is outside ggx:iso, and 31 views fix the distance loosely; the Phong lobes alone put it
-  // 1.8 m off); held out 3.05 / 4.20 codes with the estimate against 3.03 / 4.00 with the recorded lamp.
-  EXPECT_LT(direction_deg, 0.7);
-  EXPECT_LT(error_mm.norm(), 880.0);
-  EXPECT_LT(with_estimate->diffuse, 4.6);
-  EXPECT_LT(with_estimate->highlight, 6.3);
-  EXPECT_LT(with_recorded->diffuse, 4.6);
-  EXPECT_LT(with_recorded->highlight, 6.0);
-  EXPECT_LT(with_estimate->highlight, 1.1 * with_recorded->highlight);
+      estimate->light.position_mm.norm() - lamp_mm.norm(), with_recorded.all, with_estimate.all, with_recorded.diffuse,
+      with_estimate.diffuse, with_recorded.highlight, with_estimate.highlight);
+  // Bounds: 1.5x the figures measured (docs/blender.md): the light 1.25 deg off in direction, 228 mm (8 %) near (the
+  // clearcoat's second lobe is outside ggx:iso; the Phong lobes alone put it 350 mm off); held out 2.91 / 2.19 / 5.58
+  // codes (all / diffuse / highlight) with the recorded lamp, 2.96 / 2.17 / 5.86 with the estimate. Before the
+  // observation map dropped grazing samples (kObsCoarse, 2026-12-05): 0.47 deg and 586 mm, held out 3.43 codes in all
+  // with the recorded lamp (the 80 deg ring's blends of neighbouring patches fitted as the texels' own).
+  EXPECT_LT(direction_deg, 1.9);
+  EXPECT_LT(error_mm.norm(), 340.0);
+  EXPECT_LT(with_recorded.all, 4.4);
+  EXPECT_LT(with_recorded.diffuse, 3.3);
+  EXPECT_LT(with_recorded.highlight, 8.4);
+  EXPECT_LT(with_estimate.all, 1.1 * with_recorded.all);
+  EXPECT_LT(with_estimate.highlight, 1.1 * with_recorded.highlight);
 }
 
 }  // namespace

@@ -153,6 +153,28 @@ TEST(EstimatePointLights, FarLightIsAtInfinity) {
             1e-12);
 }
 
+// On a Blender session (fidelity_test_blender_light) texels whose Phong lobe peaked at the grazing views, the surface's
+// Fresnel rise, gave rays along the surface plane that met in a "light" in that plane, and it outvoted the lamp. Here
+// 441 such rays (0.3 to 1.5 deg above the plane, toward a point 8 m away on the -x side) beside 289 toward the lamp:
+// without min_elevation_rad the horizon wins; with the default 10 deg the lamp is the light.
+TEST(EstimatePointLights, RaysAlongTheSurfaceAreNotALight) {
+  const Vec3d lamp = patchwork_light();
+  std::vector<LobeRay> rays = rays_toward({lamp}, 17, deg_to_rad(0.3), 0.0, 5);
+  for (const Vec3d& p : grid(21)) rays.push_back({p, (Vec3d(-8000, -200, 100) - p).normalized()});
+  LightEstimationOptions no_floor;
+  no_floor.min_elevation_rad = 0.0;
+  const auto unfiltered = estimate_point_lights(rays, no_floor);
+  ASSERT_TRUE(unfiltered && !unfiltered->empty());
+  print(*unfiltered);
+  EXPECT_GT((unfiltered->front().position_mm - lamp).norm(), 1000.0);  // the horizon's "light" first
+  const auto lights = estimate_point_lights(rays, {});
+  ASSERT_TRUE(lights);
+  print(*lights);
+  ASSERT_EQ(lights->size(), 1u);
+  EXPECT_LT((lights->front().position_mm - lamp).norm(), 15.0);  // as OneLightWithNoiseAndOutliers
+  EXPECT_LE(lights->front().inliers, 289);  // none of the horizon's
+}
+
 TEST(EstimatePointLights, RejectsInvalidOptionsAndToleratesTooFewRays) {
   const auto rays = rays_toward({patchwork_light()}, 5, 0.0, 0.0, 1);
   auto bad = [&](auto change) {
@@ -171,6 +193,8 @@ TEST(EstimatePointLights, RejectsInvalidOptionsAndToleratesTooFewRays) {
   EXPECT_TRUE(bad([](LightEstimationOptions& o) { o.min_inliers = 1; }));
   EXPECT_TRUE(bad([](LightEstimationOptions& o) { o.ransac_iterations = 0; }));
   EXPECT_TRUE(bad([](LightEstimationOptions& o) { o.max_distance_mm = -1.0; }));
+  EXPECT_TRUE(bad([](LightEstimationOptions& o) { o.min_elevation_rad = -0.1; }));
+  EXPECT_TRUE(bad([](LightEstimationOptions& o) { o.min_elevation_rad = kPi / 2; }));
   EXPECT_TRUE(LightEstimationOptions{}.is_valid(nullptr));
   // Too few rays (or rays that are all unusable) are no light, not an error.
   const std::vector<LobeRay> few(rays.begin(), rays.begin() + 5);

@@ -281,8 +281,11 @@ TEST(Eval, ScaleOfAResponseRecoveredFromTheImages) {
   auto recovered = fit_and_eval(&recovered_map);
   ASSERT_TRUE(recovered) << recovered.error().describe();
   // Measured (160 x 120, latlong:4 = 53 views, 16 x 16 texels): scale 1.004 1.009 1.006 with the true response,
-  // 1.106 1.104 1.151 recovered; red cloth (Lambertian) 1.51 % true, 10.85 % recovered, 1.44 % recovered after the
-  // scale; paper 3.78 / 7.34 / 4.42 %, glossy plastic 6.64 / 16.96 / 6.77 %.
+  // 1.106 1.104 1.151 recovered. Kd relative error with the true response / recovered after the scale: paper 1.25 /
+  // 1.98 %, red cloth (Lambertian) 0.16 / 0.40 %, glossy plastic 0.25 / 1.31 %: the recovered curve's shape (not a
+  // scale) adds 0.73 / 0.24 / 1.06 % of Kd, bounded at 1.5 x the largest. (Before the observation map dropped the
+  // 80 deg ring's blends of neighbouring patches, kObsCoarse, the true response's own errors were 3.78 / 1.51 / 6.64 %
+  // and hid that addition: the bound was 1.5 x the true response's figure.)
   for (int c = 0; c < 3; ++c) {
     EXPECT_NEAR(with_truth->scale[c], 1.0, 0.015) << c;
     EXPECT_GT(recovered->scale[c], 1.05) << c;  // the units of the recovered curve are not the truth's
@@ -292,7 +295,7 @@ TEST(Eval, ScaleOfAResponseRecoveredFromTheImages) {
     const MaterialEval& truth_row = row(with_truth.value(), name);
     const MaterialEval& rec = row(recovered.value(), name);
     EXPECT_LT(rec.dense_scaled.mean, 1.5 * truth_row.dense.mean) << name;
-    EXPECT_LT(rec.phong_scaled.kd_rel, 1.5 * truth_row.phong.kd_rel) << name;
+    EXPECT_LT(rec.phong_scaled.kd_rel, truth_row.phong.kd_rel + 0.016) << name;
     EXPECT_NEAR(truth_row.dense_scaled.mean, truth_row.dense.mean, 0.01) << name;  // scale ~1: hardly a change
   }
   EXPECT_GT(row(recovered.value(), "red cloth").dense.mean, 0.07) << "the absolute figure keeps the factor";
