@@ -85,8 +85,8 @@ TEST(BlenderLight, EstimatedLightPredictsHeldOutViewsAsTheRecordedOne) {
   // pixels, and the two figures measured different regions.
   CompareOptions compare_options;
   compare_options.out_dir = dir.path() / "compare";
-  auto compared = compare_maps(session.value(), {recorded->map_file, estimated->map_file}, estimated->held_out,
-                               compare_options);
+  auto compared =
+      compare_maps(session.value(), {recorded->map_file, estimated->map_file}, estimated->held_out, compare_options);
   if (!compared && compared.error().code == ErrorCode::kUnsupported)
     VDRIG_SKIP_WITHOUT_GL() << "no OpenGL display: " << compared.error().message;
   ASSERT_TRUE(compared) << compared.error().describe();

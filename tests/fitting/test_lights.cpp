@@ -172,7 +172,7 @@ TEST(EstimatePointLights, RaysAlongTheSurfaceAreNotALight) {
   print(*lights);
   ASSERT_EQ(lights->size(), 1u);
   EXPECT_LT((lights->front().position_mm - lamp).norm(), 15.0);  // as OneLightWithNoiseAndOutliers
-  EXPECT_LE(lights->front().inliers, 289);  // none of the horizon's
+  EXPECT_LE(lights->front().inliers, 289);                       // none of the horizon's
 }
 
 TEST(EstimatePointLights, RejectsInvalidOptionsAndToleratesTooFewRays) {

@@ -20,8 +20,8 @@
 // it becomes a light at infinity when the lines do not meet in front of the surface within max_distance_mm or the
 // point explains them no better than a direction (BIC); its inliers and the rays within exclusion_angle_rad of it
 // are removed and the next light is searched, up to max_lights while a light gathers >= min_inliers rays.
-// Rays with a non-positive or non-finite weight, a non-finite origin, a zero / non-finite direction or a direction within
-// min_elevation_rad of the surface plane are ignored.
+// Rays with a non-positive or non-finite weight, a non-finite origin, a zero / non-finite direction or a direction
+// within min_elevation_rad of the surface plane are ignored.
 #pragma once
 
 #include <string>
@@ -75,7 +75,7 @@ struct LightEstimationOptions {
   // lights the plane (cos 10 deg = 0.17 of the light overhead), and on Blender's session such lobes gathered into a
   // "light" in the surface plane that outvoted the lamp (docs/models.md, "The light").
   double min_elevation_rad = deg_to_rad(10.0);
-  unsigned seed = 1;             // RANSAC's sampling; the result is deterministic for a given seed
+  unsigned seed = 1;  // RANSAC's sampling; the result is deterministic for a given seed
 
   bool is_valid(std::string* why) const;
 };
