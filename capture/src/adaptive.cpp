@@ -45,7 +45,7 @@ std::string AdaptiveSettings::base_scheme() const {
   // grazing and in-between directions that no highlight asks for (docs/results.md, "Adaptive sampling").
   const int n = std::max(1, max_views / 2);
   const int rings = std::max(1, static_cast<int>(std::lround(std::sqrt(kPi * n / 8.0))));
-  return "spiral:" + std::to_string(n) + ":" + std::to_string(rings) + "@85";
+  return fmt::format("spiral:{}:{}@{:g}", n, rings, max_zenith_deg);
 }
 
 bool AdaptiveSettings::is_valid(std::string* why) const {

@@ -440,14 +440,16 @@ TEST(Adaptive, TheDefaultBaseIsHalfOfNUniform) {
     EXPECT_TRUE(a) << spec;
     return a ? a->base_scheme() : std::string();
   };
-  EXPECT_EQ(base_of("adaptive:60"), "spiral:30:3@85");
-  EXPECT_EQ(base_of("adaptive:30"), "spiral:15:2@85");
-  EXPECT_EQ(base_of("adaptive:3"), "spiral:1:1@85");
+  // To the candidates' zenith limit (75 by default: the observation map's footprint limit, docs/sampling.md).
+  EXPECT_EQ(base_of("adaptive:60"), "spiral:30:3@75");
+  EXPECT_EQ(base_of("adaptive:30"), "spiral:15:2@75");
+  EXPECT_EQ(base_of("adaptive:3"), "spiral:1:1@75");
+  EXPECT_EQ(base_of("adaptive:60,zenith=82.5"), "spiral:30:3@82.5");
   EXPECT_EQ(base_of("adaptive:60,base=icosahedron:1@85"), "icosahedron:1@85");
   auto a = capture::parse_adaptive_scheme("adaptive:60");
   ASSERT_TRUE(a);
   EXPECT_EQ(a->to_spec(), "adaptive:60");
-  EXPECT_EQ(a->to_json()["base"], "spiral:30:3@85");
+  EXPECT_EQ(a->to_json()["base"], "spiral:30:3@75");
   auto base = capture::generate(a->base_scheme());
   ASSERT_TRUE(base);
   EXPECT_EQ(base->directions.size(), 30u);

@@ -33,12 +33,15 @@ namespace vdrig::capture {
 
 /// `adaptive:N[,key=value]...` (docs/sampling.md has each key and why its default).
 struct AdaptiveSettings {
-  int max_views = 60;             // N: views in all, base included
-  std::string base;               // the coarse scheme captured first (schemes.hpp grammar); empty: base_scheme()
-  int batch = 6;                  // views chosen per batch
-  double max_move_s = 0;          // budget of planned stage move time, s (0: none)
-  int res = 12;                   // coarse observation map: res x res texels (unless given: default_res(model))
-  double max_zenith_deg = 85;     // candidates' zenith limit
+  int max_views = 60;     // N: views in all, base included
+  std::string base;       // the coarse scheme captured first (schemes.hpp grammar); empty: base_scheme()
+  int batch = 6;          // views chosen per batch
+  double max_move_s = 0;  // budget of planned stage move time, s (0: none)
+  int res = 12;           // coarse observation map: res x res texels (unless given: default_res(model))
+  // Candidates' zenith limit, and the base spiral's. 75, not 85 (until 2026-12-05): the observation map does not fit
+  // a sample whose pixel footprint is over 4x the square-on one (fitting::kMaxFootprintStretch, 1 / cos 75.5 deg) on
+  // a map finer than the camera resolves, so views past it are moves and brackets no fit of such a map uses.
+  double max_zenith_deg = 75;
   double min_gain = 0.03;         // relative improvement of the predicted error that counts as progress
   int patience = 2;               // batches without progress before stopping
   double coverage_weight = 0.25;  // weight of coverage gaps against poorly constrained lobes
@@ -50,7 +53,8 @@ struct AdaptiveSettings {
 
   /// The coarse map's default side for a planner model: 12 for phong, 16 for ggx (docs/sampling.md has why).
   static int default_res(const std::string& model) { return model == "ggx" ? 16 : 12; }
-  /// `base`, or when empty half of N in a spiral to 85 deg (spiral:N/2:R@85, R = sqrt(pi N / 16)): docs/sampling.md.
+  /// `base`, or when empty half of N in a spiral to max_zenith_deg (spiral:N/2:R@Z, R = sqrt(pi N / 16)):
+  /// docs/sampling.md.
   std::string base_scheme() const;
   bool is_valid(std::string* why) const;
   std::string to_spec() const;
