@@ -589,6 +589,39 @@ bool phong_lobe_width_measured(const TexelObservations& obs, const PhongLobe& lo
   return seen >= support && brightest >= faintest / kLobePeakLevel;
 }
 
+namespace {
+
+/// kRefitCheckDirections on a Fibonacci spiral, uniform in solid angle over the upper hemisphere (z > 0).
+const std::vector<Vec3d>& refit_check_directions() {
+  static const std::vector<Vec3d> directions = [] {
+    std::vector<Vec3d> d;
+    const double golden = kPi * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < kRefitCheckDirections; ++i) {
+      const double z = 1.0 - (i + 0.5) / kRefitCheckDirections;
+      const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+      d.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    }
+    return d;
+  }();
+  return directions;
+}
+
+}  // namespace
+
+bool phong_refit_within_free_fit(const PhongParams& refit, const PhongParams& free, const TexelObservations& obs) {
+  double level = 0.0;
+  for (const Eigen::Vector3f& r : obs.radiance) level += r.cast<double>().sum();
+  const double slack = kRefitCheckFloor * level / static_cast<double>(std::max<size_t>(1, 3 * obs.size()));
+  auto within = [&](const Vec3d& v) {
+    return (refit.evaluate(v).array() <= kRefitExcessFactor * free.evaluate(v).array() + slack).all();
+  };
+  for (const PhongLobe& lobe : refit.lobes)
+    if (!within(lobe.direction)) return false;
+  for (const Vec3d& v : refit_check_directions())
+    if (!within(v)) return false;
+  return true;
+}
+
 double phong_lobe_snr(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms) {
   double sq = 0.0;
   for (size_t i = 0; i < obs.size(); ++i) {

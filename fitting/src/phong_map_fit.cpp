@@ -62,7 +62,8 @@ Result<ParameterMap> PhongModel::fit_map(const MapFitContext& context) const {
 
   // Pass 2 (shared lights): the lights from every texel's lobes, then each texel refitted with its lobes pointing at
   // them; the refit replaces the free fit where its BIC is lower (it has 2 parameters fewer per lobe, so it wins
-  // wherever it fits as well, and loses where the texel's normal or light differs, e.g. a bumpy patch).
+  // wherever it fits as well, and loses where the texel's normal or light differs, e.g. a bumpy patch) and where it
+  // stays within the free fit between the views (phong_refit_within_free_fit).
   std::string lights_attribute;
   if (shared_lights) {
     auto lights = estimate_and_log_lights(lobe_rays(staged, spec, kMaxLobeRays), f->light_options(), &lights_attribute);

@@ -137,6 +137,8 @@ struct PhongMapFit {
     const double bic = fit_bic(
         fit, texel, phong_parameter_count(static_cast<int>(fit.params.lobes.size()), fixed.shared_shininess, true));
     if (!(bic <= st->bic)) return false;
+    // The BIC sees only the observed directions: between them the refit must stay within the free fit's bound.
+    if (!phong_refit_within_free_fit(fit.params, st->params, texel)) return false;
     st->capped_lobes = fit.capped_lobes;
     st->params = fit.params;
     st->quality = fit.quality;

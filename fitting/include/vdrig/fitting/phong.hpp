@@ -146,6 +146,29 @@ inline constexpr double kLobeSeenSnr = 3.0;
 /// unbounded: fit_phong caps such a lobe as a free lobe (phong_support_cap).
 bool phong_lobe_width_measured(const TexelObservations& obs, const PhongLobe& lobe, double noise_rms, int support);
 
+/// How far a refit with fixed lobe directions may rise above the texel's free fit anywhere on the hemisphere
+/// (phong_refit_within_free_fit): the peak rule's factor.
+inline constexpr double kRefitExcessFactor = 1.0 / kLobePeakLevel;
+/// Directions at which phong_refit_within_free_fit compares the two fits: a Fibonacci spiral uniform in solid angle
+/// over the whole upper hemisphere (as the evaluation measures; ~0.013 sr each, ~6 deg apart), plus the refit's own
+/// lobe axes, where it peaks.
+inline constexpr int kRefitCheckDirections = 500;
+/// The absolute slack of that comparison, as a fraction of the texel's mean observed radiance (all observations and
+/// channels): below it a difference is the noise of the observations, not a highlight, and must not decide.
+inline constexpr double kRefitCheckFloor = 0.05;
+
+/// Whether a refit of `obs` with its lobes held at fixed directions (the shared-lights pass) may replace the texel's
+/// free fit: in every colour channel, at every direction of the check (kRefitCheckDirections and the refit's lobe
+/// axes), refit <= kRefitExcessFactor x free + kRefitCheckFloor x the mean observed radiance.
+/// Why: the BIC that chooses between the two sees only the observed directions. On sparse view sets a lobe held at a
+/// light's mirror direction a few degrees off the texel's own lobe reproduces the far flank the views see with a
+/// narrow lobe whose peak, between the views, nothing constrains; phong_lobe_width_measured exempts it from the cap
+/// because the views that see it see it fall (lights2 adaptive:30: Ks 4e5 at m 930 on brushed metal, the map's mean
+/// relative RMS 53; docs/models.md, "Sparse views and shared lights"). The free fit's lobes are always capped
+/// (phong_support_cap), so it is the reference: a refit that claims more than the peak rule's factor above it
+/// anywhere is a guess where no observation constrains it, and the texel keeps its free fit.
+bool phong_refit_within_free_fit(const PhongParams& refit, const PhongParams& free, const TexelObservations& obs);
+
 /// Number of free parameters of a K-lobe model: Kd (3), per lobe Ks (3) + direction (2 for a unit vector, none when
 /// the directions are fixed), m (1 shared or K): 9 for one lobe, 7 with its direction fixed, 3 with no lobe.
 int phong_parameter_count(int lobes, bool shared_shininess, bool fixed_directions = false);
