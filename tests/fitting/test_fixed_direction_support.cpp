@@ -20,6 +20,18 @@ namespace {
 
 using test_support::scheme_directions;
 
+/// `truth` seen from `views` as an 8-bit camera records it (sim::record_texel, noise seed `seed`).
+TexelObservations recorded_texel(const std::vector<Vec3d>& views, const PhongParams& truth, unsigned seed) {
+  TexelObservations obs;
+  for (const Vec3d& v : views) {
+    obs.direction.push_back(v.cast<float>());
+    obs.radiance.push_back(truth.evaluate(v).cast<float>());
+    obs.view.push_back(static_cast<int>(obs.view.size()));
+  }
+  sim::record_texel(obs.radiance, {}, seed);
+  return obs;
+}
+
 /// The worst, over `seeds` seeds of 8-bit noise (sim::record_texel), of a fit with the lobe held at `mirror`: the
 /// prediction there, and the fitted peak over `seen`, what the nearest view saw of the truth's lobe.
 struct Worst {
@@ -29,13 +41,7 @@ Worst fit_over_seeds(const std::vector<Vec3d>& views, const PhongParams& truth, 
                      unsigned seeds) {
   Worst worst;
   for (unsigned seed = 1; seed <= seeds; ++seed) {
-    TexelObservations obs;
-    for (const Vec3d& v : views) {
-      obs.direction.push_back(v.cast<float>());
-      obs.radiance.push_back(truth.evaluate(v).cast<float>());
-      obs.view.push_back(static_cast<int>(obs.view.size()));
-    }
-    sim::record_texel(obs.radiance, {}, seed);
+    const TexelObservations obs = recorded_texel(views, truth, seed);
     PhongFitOptions o;
     o.fixed_directions = {mirror};
     const PhongFit fit = fit_phong(obs, o);
@@ -141,13 +147,7 @@ RefitOutcome refit_over_seeds(const std::vector<Vec3d>& views, const PhongParams
   RefitOutcome out;
   const double truth_peak = hemisphere_peak(truth);
   for (unsigned seed = 1; seed <= seeds; ++seed) {
-    TexelObservations obs;
-    for (const Vec3d& v : views) {
-      obs.direction.push_back(v.cast<float>());
-      obs.radiance.push_back(truth.evaluate(v).cast<float>());
-      obs.view.push_back(static_cast<int>(obs.view.size()));
-    }
-    sim::record_texel(obs.radiance, {}, seed);
+    const TexelObservations obs = recorded_texel(views, truth, seed);
     PhongFitOptions o;
     const PhongFit free = fit_phong(obs, o);
     o.fixed_directions = {fixed};
