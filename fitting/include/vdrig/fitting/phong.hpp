@@ -20,12 +20,13 @@
 //  - support (PhongFitOptions::lobe_support): at least that many observations lie inside each lobe's support cone,
 //    where the lobe is >= kLobeSupportLevel of its peak. A lobe narrower than the sampling around it has its shininess
 //    capped (phong_support_cap) and is refitted, so its peak is never more than 1 / kLobeSupportLevel times what the
-//    observations show of it. Lobes held at fixed_directions are exempt where at least lobe_support observations see
-//    them above the noise (phong_lobe_width_measured): their direction comes from elsewhere (the lights estimated over
-//    the whole map), and with it Ks and m are measured on the lobe's flanks -- where the views that see it see it
-//    fall by >= 1 / kLobePeakLevel between them (phong_lobe_width_measured). Where fewer see them, or all at about
-//    the same height on the flank, Ks and m are not measured (they trade along what the views saw) and the cap of
-//    free lobes applies to them, so their peak too stays within a bounded factor of what the observations show;
+//    observations show of it. Lobes held at fixed_directions are exempt where their width is measured
+//    (phong_lobe_width_measured: at least lobe_support observations see them above the noise, and those views see
+//    the lobe fall by >= 1 / kLobePeakLevel between them): their direction comes from elsewhere (the lights estimated
+//    over the whole map), and with it Ks and m are measured on the lobe's flanks. Where fewer see them, or all at
+//    about the same height on the flank, Ks and m are not measured (they trade along what the views saw) and the cap
+//    of free lobes applies to them, so their peak too stays within a bounded factor of what the observations show;
+//    the shared-lights pass then keeps a refit only within the free fit's bound (phong_refit_within_free_fit);
 //  - significance (PhongFitOptions::significant_lobes_only): a lobe is kept only where it lowers the BIC and stands
 //    above the fit's noise (phong_lobe_snr >= kLobeDetectionSnr); the lobe count is chosen among 0..K, so a diffuse
 //    texel gets no lobe.
