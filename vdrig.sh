@@ -2,7 +2,7 @@
 # vdrig.sh: the two things a new user does first.
 #   ./vdrig.sh demo   set up, build, and run the whole pipeline on the simulated rig (writes images to out/demo)
 #   ./vdrig.sh test   set up, build, and pass the tests (Release, the capture-only build, then under ASan + UBSan,
-#                     then the fuzz targets)
+#                     then the fuzz targets); --quick: the Release build and its tests alone (a developer's loop)
 # Other verbs: build, bench, results (regenerates docs/results.md), screenshots (regenerates docs/img/*.png),
 # format-check, fuzz (each fuzz target for VDRIG_FUZZ_SECONDS, default 15; docs/fuzzing.md). Options after the verb go
 # to the demo (see: build/apps/vdrig demo --help).
@@ -14,8 +14,28 @@ shift || true
 jobs=$(nproc)
 # ccache: paths relative to this clone, so a fresh clone (CI) hits the cache an earlier clone filled.
 export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
+# The precompiled headers (cmake/VdrigTargets.cmake): ccache caches a source compiled with one when these are sloppy
+# (the PCH is hashed by its contents, and the PCH itself comes from the cache, byte for byte, in a warm build).
+export CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime
 
-setup() { bash scripts/setup "$@"; }  # --tests: the npm packages the tests run are required (scripts/setup)
+setup() { bash scripts/setup "$@"; }
+
+# Each phase's wall time, for docs/build-time.md's table: "== phase: N s (M s in all)".
+phase_start=$SECONDS
+phase_done() {
+  echo "== $1: $((SECONDS - phase_start)) s ($SECONDS s in all)"
+  phase_start=$SECONDS
+}
+
+# The relight-cli peer (tests/rti, bench_rti): built whenever its source is beside the repository, as CI's is; the
+# tests then require it (VDRIG_REQUIRE_RELIGHT=1), so that a failed build or a missing binary fails the run instead of
+# skipping its tests. Without the source the tests skip, naming it.
+relight_peer() {
+  local tarball=../shared/peers/relight/relight-src.tar.gz binary
+  [ -f "$tarball" ] || { echo "relight-cli: no $tarball beside the repository: its tests will skip"; return 0; }
+  binary=$(bash scripts/build_relight "$tarball" | tail -n 1)
+  export VDRIG_RELIGHT_CLI=$binary VDRIG_REQUIRE_RELIGHT=1
+}  # --tests: the npm packages the tests run are required (scripts/setup)
 
 configure_and_build() {  # $1 = preset, then the targets to build (none: all of them)
   local preset=$1
@@ -35,6 +55,7 @@ with_display() {
 # input is written to build/fuzz/artifacts/ (keep it in fuzz/regressions/<target>/ once fixed).
 run_fuzzers() {
   configure_and_build fuzz
+  phase_done "fuzz build"
   local seconds=${VDRIG_FUZZ_SECONDS:-15} artifacts=$PWD/build/fuzz/artifacts work target name
   mkdir -p "$artifacts"
   work=$(mktemp -d)
@@ -134,15 +155,25 @@ case "$verb" in
     echo "./vdrig.sh demo: ${SECONDS} s in all (setup, build and the demo)"
     ;;
   test)
+    quick=0
+    [ "${1:-}" = --quick ] && quick=1
     setup --tests
+    phase_done setup
     # Every test runs under a display here (Xvfb when there is none): an OpenGL test that finds no context fails
     # instead of skipping (tests/common/vdrig/test/require_gl.hpp).
     export VDRIG_REQUIRE_GL=1
+    relight_peer
+    phase_done "relight-cli peer"
     configure_and_build ci
+    phase_done "ci build"
     with_display ctest --preset ci
+    phase_done "Release tests"
+    [ "$quick" -eq 1 ] && exit 0
     configure_and_build capture
     check_capture_build
+    phase_done "capture build and link check"
     configure_and_build asan
+    phase_done "asan build"
     export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0
     export LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
@@ -156,7 +187,9 @@ case "$verb" in
     # interceptor only adds dynamic TLS as a root of the leak scan: without it a leak could be reported that is not
     # one, never one hidden (none is).
     with_display ctest --preset asan
+    phase_done "ASan + UBSan tests"
     run_fuzzers
+    phase_done "fuzzing"
     ;;
   fuzz)
     setup

@@ -16,6 +16,7 @@
 
 #include "vdrig/cluster/tile_store.hpp"
 #include "vdrig/fitting/tiled_fit.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace fs = std::filesystem;
 using namespace vdrig;

@@ -27,6 +27,7 @@
 #include "vdrig/probe/irradiance_map.hpp"
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/soft_lights.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 using namespace vdrig;
 using namespace vdrig::probe;

@@ -14,6 +14,7 @@
 #include "vdrig/probe/median_cut.hpp"
 #include "vdrig/probe/probe.hpp"
 #include "vdrig/probe/sh_irradiance.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 using namespace vdrig;
 using namespace vdrig::probe;

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "synthetic_stack.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace {
 

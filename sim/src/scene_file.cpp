@@ -133,8 +133,6 @@ std::vector<json> objects(Settings& root, const json& j, const std::string& key,
 
 std::string indexed(const std::string& key, std::size_t i) { return key + "[" + std::to_string(i) + "]"; }
 
-constexpr double kMax = std::numeric_limits<double>::max();
-
 float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 // A kd image as linear RGB CV_32FC3: PNG (8-bit sRGB-decoded, 16-bit linear; grey or colour) or OpenEXR (linear;

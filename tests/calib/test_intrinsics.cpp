@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "vdrig/calib/intrinsics.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::calib {

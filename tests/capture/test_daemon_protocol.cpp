@@ -23,6 +23,7 @@
 
 #include "sim_session.hpp"
 #include "vdrig/capture/daemon.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::capture {
 namespace {

@@ -10,6 +10,7 @@
 #include "vdrig/rig/bringup.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig {
 namespace {

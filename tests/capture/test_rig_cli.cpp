@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include "test_support.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/modbus_peer.hpp"
 
 namespace vdrig::capture {

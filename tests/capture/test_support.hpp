@@ -27,6 +27,7 @@
 #include "vdrig/capture/session.hpp"
 #include "vdrig/rig/registry.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

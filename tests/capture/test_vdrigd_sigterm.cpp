@@ -16,6 +16,7 @@
 
 #include "test_support.hpp"
 #include "vdrig/capture/session.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::capture {
 namespace {

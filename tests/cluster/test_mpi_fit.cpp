@@ -14,6 +14,7 @@
 
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/test/true_calibration.hpp"

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "vdrig/pipeline/pipeline.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::pipeline::test_blender {
 

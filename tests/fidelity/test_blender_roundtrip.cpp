@@ -26,6 +26,7 @@
 #include "vdrig/pipeline/gltf_export.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 #include "vdrig/test/true_calibration.hpp"

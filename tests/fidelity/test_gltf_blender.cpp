@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../pipeline/gltf_views.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "vdrig/fitting/obsmap_file.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::fitting {

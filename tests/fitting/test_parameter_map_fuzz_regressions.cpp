@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "vdrig/fitting/parameter_map.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::fitting {
 namespace {

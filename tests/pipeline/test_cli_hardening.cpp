@@ -13,6 +13,7 @@
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -21,6 +21,7 @@
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/fit_stage.hpp"
 #include "vdrig/pipeline/gltf_export.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -18,6 +18,7 @@
 
 #include "gltf_views.hpp"
 #include "vdrig/test/browser.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

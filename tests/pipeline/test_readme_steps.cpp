@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -20,6 +20,7 @@
 #include "vdrig/pipeline/eval_stage.hpp"
 #include "vdrig/pipeline/pipeline.hpp"
 #include "vdrig/pipeline/report.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/require_gl.hpp"
 #include "vdrig/test/temp_dir.hpp"

@@ -12,6 +12,7 @@
 
 #include "vdrig/probe/irradiance_error.hpp"
 #include "vdrig/probe/probe.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::probe::testing {
 

@@ -10,6 +10,7 @@
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/core/image_io.hpp"
 #include "vdrig/probe/object_path.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::probe {

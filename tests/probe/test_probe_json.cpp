@@ -11,6 +11,7 @@
 #include "probe_support.hpp"
 #include "vdrig/core/file_read.hpp"
 #include "vdrig/probe/probe_json.hpp"
+#include "vdrig/test/build_paths.hpp"
 
 namespace vdrig::probe {
 namespace {

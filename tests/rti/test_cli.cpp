@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "synthetic_stack.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
 #include "vdrig/test/temp_dir.hpp"
 

@@ -16,6 +16,7 @@
 #include "vdrig/rti/import.hpp"
 #include "vdrig/rti/pca_basis.hpp"
 #include "vdrig/test/browser.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 #ifndef VDRIG_TEST_DATA_DIR

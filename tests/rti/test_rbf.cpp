@@ -5,8 +5,8 @@
 //
 // relight-cli is the peer: it renders vdrig's folder with its own loader and renderer (src/rti.cpp), and its
 // folder is rendered here with the weights OpenLIME uses, so the two fits are compared as OpenLIME shows them.
-// Tests needing it skip, naming it, when it is absent (build/peers/relight/build/relight-cli/relight-cli or
-// $VDRIG_RELIGHT_CLI).
+// Tests needing it skip, naming it, when it is absent (vdrig/test/relight_peer.hpp: where ./vdrig.sh test built it,
+// they fail instead).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,7 +23,9 @@
 #include "vdrig/rti/fitted_files.hpp"
 #include "vdrig/rti/import.hpp"
 #include "vdrig/rti/pca_basis.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
+#include "vdrig/test/relight_peer.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::rti {
@@ -33,17 +35,6 @@ namespace fs = std::filesystem;
 
 constexpr int kSize = 128, kLights = 289;
 bool held_out_view(int v) { return v % 9 == 4; }  // 32 of 289, spread along the spiral (all elevations)
-
-fs::path relight_cli() {
-  if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && *env) return env;
-  return fs::path(VDRIG_SOURCE_DIR) / "build/peers/relight/build/relight-cli/relight-cli";
-}
-bool have_relight_cli() { return fs::is_regular_file(relight_cli()); }
-#define REQUIRE_RELIGHT_CLI()                                                                                        \
-  if (!have_relight_cli())                                                                                           \
-  GTEST_SKIP() << "relight-cli (the peer) is not built: run scripts/build_relight or set VDRIG_RELIGHT_CLI (looked " \
-                  "for "                                                                                             \
-               << relight_cli() << ")"
 
 /// Error of an image (3 floats per texel, rows from the top, codes) against the stack's true radiance x 255, after
 /// the framebuffer's rounding to 8 bits.
@@ -327,7 +318,7 @@ TEST_F(Rbf, ReaderRefusesOtherBases) {
 
 /// Runs relight-cli; its stdout and stderr for the failure message.
 test::ProcessRun relight(const std::vector<std::string>& args) {
-  std::vector<std::string> argv = {relight_cli().string()};
+  std::vector<std::string> argv = {test::relight_cli_path().string()};
   argv.insert(argv.end(), args.begin(), args.end());
   return test::run_process(argv, {.timeout_s = 300, .merge_stderr = true});
 }
@@ -345,7 +336,7 @@ std::vector<float> relight_render(const fs::path& folder, const Vec3d& l, const 
 // evaluation of the same folder with those weights. Checks the layout (basis order, mean, range, scale and bias in
 // materials[0], plane order and rows) through a program that was not written from vdrig's reading of the format.
 TEST_F(Rbf, RelightCliRendersVdrigsFolderAsVdrigDoes) {
-  REQUIRE_RELIGHT_CLI();
+  VDRIG_REQUIRE_RELIGHT_CLI();
   ErrorSum diff;
   double worst = 0;
   for (size_t i = 0; i < shared->held_out_lights.size(); i += 8) {
@@ -366,7 +357,7 @@ TEST_F(Rbf, RelightCliRendersVdrigsFolderAsVdrigDoes) {
 
 // relight-cli -b rbf on the same JPEGs without the held-out lights, both folders shown with OpenLIME's weights.
 TEST_F(Rbf, AtLeastAsAccurateAsRelightCli) {
-  REQUIRE_RELIGHT_CLI();
+  VDRIG_REQUIRE_RELIGHT_CLI();
   const fs::path train = shared->dir / "train";
   fs::create_directories(train);
   std::string lp = std::to_string(kLights - static_cast<int>(shared->held_out.size())) + "\n";

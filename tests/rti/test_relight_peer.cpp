@@ -1,10 +1,11 @@
 // vdrig's RTI files judged by relight-cli (CNR-ISTI's fitter behind OpenLIME, GPL-3.0, built from its source by
-// scripts/build_relight; not part of every CI run), and relight-cli's fits read by vdrig:
+// scripts/build_relight, which ./vdrig.sh test runs when its source is beside the repository), and relight-cli's fits
+// read by vdrig:
 //  - relight-cli converts vdrig's .ptm and .rti into its own format and renders them (and vdrig's relight folders)
 //    under known lights with its own renderer (`-L x:y:z -D out.png`): what it draws must be what vdrig evaluates;
 //  - relight-cli fits the same stack to .ptm, .rti and a relight folder; vdrig reads each and must reproduce the
 //    stack as well as its own fit does.
-// Skipped, by name, when relight-cli is absent: set VDRIG_RELIGHT_CLI or run scripts/build_relight.
+// Skipped, by name, when relight-cli is absent (failed where the run requires it: vdrig/test/relight_peer.hpp).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -16,7 +17,9 @@
 #include "vdrig/rti/export.hpp"
 #include "vdrig/rti/fitted_files.hpp"
 #include "vdrig/rti/import.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/process.hpp"
+#include "vdrig/test/relight_peer.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 #ifndef VDRIG_TEST_DATA_DIR
@@ -30,20 +33,11 @@ namespace fs = std::filesystem;
 
 constexpr int kWidth = 48, kHeight = 32, kLights = 49;
 
-/// $VDRIG_RELIGHT_CLI, else where scripts/build_relight puts it; empty when neither exists.
-std::string find_relight_cli() {
-  if (const char* env = std::getenv("VDRIG_RELIGHT_CLI"); env && ::access(env, X_OK) == 0) return env;
-  const fs::path built = fs::path(VDRIG_TEST_DATA_DIR).parent_path().parent_path() / "build" / "peers" / "relight" /
-                         "build" / "relight-cli" / "relight-cli";
-  return ::access(built.c_str(), X_OK) == 0 ? built.string() : "";
-}
-
 class RelightPeer : public ::testing::Test {
  protected:
   void SetUp() override {
-    relight_ = find_relight_cli();
-    if (relight_.empty())
-      GTEST_SKIP() << "relight-cli is not built (scripts/build_relight builds it, or set VDRIG_RELIGHT_CLI)";
+    VDRIG_REQUIRE_RELIGHT_CLI();
+    relight_ = test::relight_cli_path().string();
     fs::create_directories(dir_ / "stack");
     stack_ = test::write_synthetic_stack(dir_ / "stack", kWidth, kHeight, kLights, ".jpg");
     auto imported = import_stack(dir_ / "stack", dir_ / "stack.vdobs");  // the codes, as relight fits them

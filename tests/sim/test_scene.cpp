@@ -82,7 +82,6 @@ TEST(Scenes, PrintIsHighFrequencyTextLikeAlbedo) {
 TEST(Scenes, PhongTruthReproducesTheRadianceOfEveryMaterial) {
   const Scene s = make_scene("patchwork").value();
   cv::RNG rng(11);
-  int checked = 0;
   std::set<int> materials;
   for (int i = 0; i < 20000; ++i) {
     const Vec3d p(rng.uniform(-490.0, 490.0), rng.uniform(-490.0, 490.0), 0.0);
@@ -94,7 +93,6 @@ TEST(Scenes, PhongTruthReproducesTheRadianceOfEveryMaterial) {
     const Vec3d L = s.radiance(p, v);
     for (int c = 0; c < 3; ++c) ASSERT_NEAR(L[c], model[c], 1e-12 + 1e-9 * model[c]);
     materials.insert(s.material_at(p.x(), p.y()));
-    ++checked;
   }
   EXPECT_EQ(materials.size(), s.materials.size());  // every material, markers included
   EXPECT_FALSE(make_scene("lights2")->phong_truth({0, 0, 0}).has_value());

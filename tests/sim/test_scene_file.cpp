@@ -15,6 +15,7 @@
 #include "vdrig/sim/renderer.hpp"
 #include "vdrig/sim/scene_file.hpp"
 #include "vdrig/sim/sim_rig.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/temp_dir.hpp"
 
 namespace vdrig::sim {

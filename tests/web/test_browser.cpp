@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "vdrig/test/browser.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "web_support.hpp"
 
 namespace vdrig::web::testing {

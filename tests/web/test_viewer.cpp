@@ -19,6 +19,7 @@
 #include "vdrig/pipeline/obsmap_stage.hpp"
 #include "vdrig/pipeline/web_scene.hpp"
 #include "vdrig/test/browser.hpp"
+#include "vdrig/test/build_paths.hpp"
 #include "vdrig/test/require_gl.hpp"
 #include "vdrig/viewer/surface_renderer.hpp"
 #include "vdrig/viewer/texel_inspector.hpp"

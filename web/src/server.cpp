@@ -518,7 +518,7 @@ struct Server::Impl {
              [this](const httplib::Request& req, httplib::Response& res) { serve_viewer_texel(req, res); });
     http.Get(R"(/report/([^/]+))",
              [this](const httplib::Request& req, httplib::Response& res) { serve_report(req.matches[1], res); });
-    http.Get("/viewer", [this](const httplib::Request&, httplib::Response& res) {
+    http.Get("/viewer", [](const httplib::Request&, httplib::Response& res) {
       res.set_content(std::string(asset("viewer.html")), "text/html; charset=utf-8");
     });
     http.Get("/static/viewer.js", [this](const httplib::Request&, httplib::Response& res) {

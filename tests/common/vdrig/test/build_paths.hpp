@@ -2,9 +2,9 @@
 //
 // The paths live in one source generated per build (build_paths.cpp in the build folder, cmake/VdrigTargets.cmake's
 // vdrig_build_paths), not in -D definitions on every test: a test's object then holds no absolute path, so a fresh
-// clone in another folder (CI's) compiles to the same object and hits the compiler cache (CCACHE_BASEDIR). This
-// header is force-included (-include) into every test and into the benchmarks that need it; the macros keep the
-// names the tests have always used.
+// clone in another folder (CI's) compiles to the same object and hits the compiler cache (CCACHE_BASEDIR). A source
+// that uses the macros includes this header (cmake's vdrig_use_build_paths links the paths and says whether the
+// target may run vdrig); the macros keep the names the tests have always used.
 #pragma once
 
 namespace vdrig::test {

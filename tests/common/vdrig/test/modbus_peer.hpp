@@ -14,6 +14,8 @@
 #include <optional>
 #include <string>
 
+#include "vdrig/test/build_paths.hpp"
+
 namespace vdrig::test {
 
 /// Debian's interpreter, not whatever `python3` is first on PATH (a pyenv one would lack python3-pymodbus).

@@ -17,6 +17,8 @@
 #include <thread>
 #include <vector>
 
+#include "vdrig/test/build_paths.hpp"
+
 namespace vdrig::test {
 
 /// What a finished (or killed) child process left.
