@@ -34,6 +34,7 @@ relight_peer() {
   local tarball=../shared/peers/relight/relight-src.tar.gz binary
   [ -f "$tarball" ] || { echo "relight-cli: no $tarball beside the repository: its tests will skip"; return 0; }
   binary=$(bash scripts/build_relight "$tarball" | tail -n 1)
+  echo "relight-cli: $binary (its tests are required)"
   export VDRIG_RELIGHT_CLI=$binary VDRIG_REQUIRE_RELIGHT=1
 }  # --tests: the npm packages the tests run are required (scripts/setup)
 
