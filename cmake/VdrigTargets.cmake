@@ -18,7 +18,7 @@ if(VDRIG_WERROR)
   target_compile_options(vdrig_options INTERFACE -Werror)
 endif()
 # LLVM's linker (Debian's lld, scripts/setup) where it is installed: the 130 test executables of a build link against
-# the same large static libraries, and GNU ld took most of a sanitizer build's link time (docs/build-time.md).
+# the same large static libraries (with lld, all their links and discoveries took 88 s of the sanitizer build).
 find_program(VDRIG_LLD ld.lld)
 if(VDRIG_LLD)
   target_link_options(vdrig_options INTERFACE -fuse-ld=lld)
@@ -43,7 +43,7 @@ endif()
 
 # Precompiled headers (docs/build-time.md): the third-party headers every source parsed again (OpenCV's core, Eigen,
 # spdlog, nlohmann-json, the standard library; GoogleTest for the tests) are compiled once per build into a PCH that
-# each target reuses: 6 s of a typical source's 7-10 s was spent parsing them. Three roots, since GCC and clang only
+# each target reuses: 2.5-3 s of a typical source's 9-11 s was spent parsing them (the rest is code generation). Three roots, since GCC and clang only
 # accept a PCH compiled with the same code-generation flags as its user: libraries (position-independent), other
 # executables' and libraries' objects, and the tests (common.hpp plus GoogleTest). Each root is an empty library with
 # the usage requirements (include paths, definitions) of what its header includes; a target that reuses it gets the
@@ -78,10 +78,7 @@ function(vdrig_use_pch target kind)
     return()
   endif()
   string(TOLOWER ${kind} root)
-  target_link_libraries(${target} PRIVATE vdrig_pch_usage)
-  if(kind STREQUAL "TEST")
-    target_link_libraries(${target} PRIVATE GTest::gtest)
-  endif()
+  target_link_libraries(${target} PRIVATE vdrig_pch_usage)  # (a TEST target links GoogleTest already: vdrig_test)
   target_precompile_headers(${target} REUSE_FROM vdrig_pch_${root})
 endfunction()
 
